@@ -1,0 +1,5 @@
+import sys
+
+from airmat.cli import main
+
+sys.exit(main())

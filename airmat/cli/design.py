@@ -1,0 +1,14 @@
+"""`airmat design`: not implemented yet."""
+
+from __future__ import annotations
+
+from airmat.errors import InputError
+
+
+def add_parser(sub, parents):
+    p = sub.add_parser("design", parents=parents, help="(not implemented yet)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    raise InputError("'airmat design' is not implemented yet")

@@ -1,0 +1,189 @@
+"""Equation 3 of Todo et al. (2024): string length l  <->  induced curvature kappa_1.
+
+A string of length ``l`` tied between two points a geodesic distance ``L``
+apart on a mattress of thickness ``d`` bends it by the angle ``theta``
+solving
+
+    (l + 2 Delta) / (L - (pi - theta) d) = sin(theta / 2),
+
+where ``Delta`` is how far each string end slips toward the other. With
+``L* = L - (pi - theta) d`` the curvature is ``kappa_1 = 2 cos(theta/2) / L*``.
+For ``l >= L - 2 Delta`` the mattress stays flat (``theta = pi``,
+``kappa_1 = 0``).
+
+Both directions are solved elementwise with a bracketed root finder
+(Chandrupatla, :func:`scipy.optimize.elementwise.find_root`) over arrays
+of any broadcastable shape, e.g. a (walkers, specimens) batch in one call.
+All lengths are in metres, curvatures in 1/m.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import elementwise
+
+from airmat.errors import InputError
+
+__all__ = ["bend_angle", "kappa1", "string_length", "kappa_max", "flat_length"]
+
+_TOL = dict(xatol=0.0, xrtol=4 * np.finfo(float).eps, fatol=0.0, frtol=0.0)
+
+
+def _check_params(L, delta, d):
+    L, delta, d = (np.asarray(x, dtype=float) for x in (L, delta, d))
+    for name, x, bad in (("L", L, ~(L > 0)), ("d", d, ~(d > 0)), ("delta", delta, ~(delta >= 0))):
+        if np.any(bad):
+            raise InputError(f"non-physical {name}={x[bad].ravel()[0]!r} m: "
+                             f"need L > 0, d > 0 and delta >= 0", **{name: x})
+    return L, delta, d
+
+
+def _theta_min(L, d):
+    """Smallest admissible bend angle, where L* = L - (pi - theta) d reaches 0."""
+    return np.maximum(np.pi - L / d, 0.0)
+
+
+def _lstar(theta, L, d):
+    return L - (np.pi - theta) * d
+
+
+def _solve_theta(l, L, delta, d):
+    """theta of Equation 3 for l + 2 delta < L (caller guarantees); same broadcast shape."""
+    lo = _theta_min(L, d)
+    lstar = l + 2.0 * delta
+
+    def g(theta, lstar, L, d):  # increasing in theta on (theta_min, pi]
+        return _lstar(theta, L, d) * np.sin(theta / 2.0) - lstar
+
+    res = elementwise.find_root(g, (lo, np.full_like(lo, np.pi)), args=(lstar, L, d), tolerances=_TOL)
+    return res.x
+
+
+def bend_angle(l, L, delta, d):
+    """Bend angle theta (rad) of Equation 3; pi where the mattress stays flat.
+
+    Parameters
+    ----------
+    l, L, delta, d : array_like
+        String length, geodesic distance of its ends, end slip and mattress
+        thickness, all in metres; broadcast against each other.
+
+    Returns
+    -------
+    ndarray
+        theta in (0, pi], of the broadcast shape.
+    """
+    L, delta, d = _check_params(L, delta, d)
+    l = np.asarray(l, dtype=float)
+    if np.any(~(l >= 0)):
+        raise InputError("string length l must be >= 0 m", l=l)
+    l, L, delta, d = np.broadcast_arrays(l, L, delta, d)
+    theta = np.full(l.shape, np.pi)
+    bent = l + 2.0 * delta < L
+    if np.any(bent):
+        theta[bent] = _solve_theta(l[bent], L[bent], delta[bent], d[bent])
+    return theta
+
+
+def kappa1(l, L, delta, d):
+    """Curvature induced by a string of length ``l`` (Equation 3).
+
+    Parameters
+    ----------
+    l : array_like
+        String length (m), ``l >= 0``.
+    L : array_like
+        Geodesic distance between the string's two ends on the mattress (m), > 0.
+    delta : array_like
+        Slip of each string end toward the other (m), >= 0 (paper: 18 mm).
+    d : array_like
+        Mattress thickness (m), > 0 (paper: 70 mm).
+
+    Returns
+    -------
+    ndarray
+        kappa_1 (1/m) of the broadcast shape; 0 where ``l >= L - 2 delta``.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        (a ValueError) for L <= 0, d <= 0, delta < 0 or l < 0.
+
+    Examples
+    --------
+    >>> round(float(kappa1(0.15, 0.30, 0.018, 0.070)), 3)
+    4.873
+    """
+    theta = bend_angle(l, L, delta, d)
+    L = np.broadcast_to(np.asarray(L, float), theta.shape)
+    d = np.broadcast_to(np.asarray(d, float), theta.shape)
+    return np.where(theta < np.pi, 2.0 * np.cos(theta / 2.0) / _lstar(theta, L, d), 0.0)
+
+
+def kappa_max(L, delta, d):
+    """Largest curvature (1/m) a string can produce: the one at ``l = 0``."""
+    return kappa1(0.0, L, delta, d)
+
+
+def flat_length(L, delta):
+    """String length (m) from which on the mattress stays flat: ``L - 2 delta``."""
+    return np.asarray(L, float) - 2.0 * np.asarray(delta, float)
+
+
+def string_length(kappa, L, delta, d):
+    """String length (m) that induces the curvature ``kappa`` (inverse of :func:`kappa1`).
+
+    Parameters
+    ----------
+    kappa : array_like
+        Target curvature (1/m), ``0 <= kappa <= kappa_max(L, delta, d)``.
+    L, delta, d : array_like
+        As in :func:`kappa1` (m).
+
+    Returns
+    -------
+    ndarray
+        l (m) of the broadcast shape; ``L - 2 delta`` (the flat threshold) for
+        ``kappa = 0``.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        (a ValueError) for non-physical parameters, a negative or non-finite
+        kappa, or a kappa beyond what even ``l = 0`` reaches; the message
+        gives that largest reachable kappa.
+
+    Examples
+    --------
+    >>> l = string_length(4.8734217, 0.30, 0.018, 0.070)
+    >>> round(float(l), 4)
+    0.15
+    """
+    L, delta, d = _check_params(L, delta, d)
+    kappa = np.asarray(kappa, dtype=float)
+    if np.any(~(kappa >= 0) | ~np.isfinite(kappa)):
+        raise InputError("curvature kappa must be finite and >= 0 1/m "
+                         "(the sign is the side the string goes on)", kappa=kappa)
+    kappa, L, delta, d = np.broadcast_arrays(kappa, L, delta, d)
+    kmax = kappa_max(L, delta, d)
+    over = kappa > kmax * (1 + 1e-12)
+    if np.any(over):
+        i = np.flatnonzero(over.ravel())[0]
+        raise InputError(f"curvature {kappa.ravel()[i]:.4g} 1/m is beyond reach: even l = 0 gives "
+                         f"only {kmax.ravel()[i]:.4g} 1/m (L={L.ravel()[i]:.4g} m, "
+                         f"delta={delta.ravel()[i]:.4g} m, d={d.ravel()[i]:.4g} m)",
+                         kappa=kappa, kappa_max=kmax)
+    l = np.asarray(flat_length(L, delta), dtype=float).copy()
+    bent = (kappa > 0) & (l > 0)
+    if np.any(bent):
+        kb, Lb, db, deltab = kappa[bent], L[bent], d[bent], delta[bent]
+        # theta at l = 0 brackets the root from below; kappa(theta) decreases to 0 at pi
+        lo = _solve_theta(np.zeros_like(kb), Lb, deltab, db)
+
+        def h(theta, kb, Lb, db):  # decreasing in theta
+            return 2.0 * np.cos(theta / 2.0) - kb * _lstar(theta, Lb, db)
+
+        res = elementwise.find_root(h, (lo, np.full_like(lo, np.pi)), args=(kb, Lb, db), tolerances=_TOL)
+        theta = res.x
+        l[bent] = np.maximum(_lstar(theta, Lb, db) * np.sin(theta / 2.0) - 2.0 * deltab, 0.0)
+    return l
