@@ -56,7 +56,8 @@ def _solve_theta(l, L, delta, d):
         return _lstar(theta, L, d) * np.sin(theta / 2.0) - lstar
 
     res = elementwise.find_root(g, (lo, np.full_like(lo, np.pi)), args=(lstar, L, d), tolerances=_TOL)
-    return res.x
+    # l* = 0: the root is the bracket's end theta_min itself, which find_root rejects as a bracket
+    return np.where(g(lo, lstar, L, d) >= 0.0, lo, res.x)
 
 
 def bend_angle(l, L, delta, d):
@@ -102,7 +103,8 @@ def kappa1(l, L, delta, d):
     Returns
     -------
     ndarray
-        kappa_1 (1/m) of the broadcast shape; 0 where ``l >= L - 2 delta``.
+        kappa_1 (1/m) of the broadcast shape; 0 where ``l >= L - 2 delta``;
+        ``inf`` where ``l + 2 delta = 0`` and ``L < pi d`` (the bend closes).
 
     Raises
     ------
@@ -117,7 +119,12 @@ def kappa1(l, L, delta, d):
     theta = bend_angle(l, L, delta, d)
     L = np.broadcast_to(np.asarray(L, float), theta.shape)
     d = np.broadcast_to(np.asarray(d, float), theta.shape)
-    return np.where(theta < np.pi, 2.0 * np.cos(theta / 2.0) / _lstar(theta, L, d), 0.0)
+    # L* -> 0 (l = delta = 0 with L < pi d): the wrinkles eat the whole span, kappa -> inf
+    lstar = _lstar(theta, L, d)
+    num = 2.0 * np.cos(theta / 2.0)
+    k = np.divide(num, lstar, out=np.full(theta.shape, np.inf), where=lstar > 1e-12 * L)
+    k[theta >= np.pi] = 0.0
+    return k
 
 
 def kappa_max(L, delta, d):
@@ -184,6 +191,6 @@ def string_length(kappa, L, delta, d):
             return 2.0 * np.cos(theta / 2.0) - kb * _lstar(theta, Lb, db)
 
         res = elementwise.find_root(h, (lo, np.full_like(lo, np.pi)), args=(kb, Lb, db), tolerances=_TOL)
-        theta = res.x
+        theta = np.where(h(lo, kb, Lb, db) <= 0.0, lo, res.x)  # kappa = kappa_max: root at the bracket end
         l[bent] = np.maximum(_lstar(theta, Lb, db) * np.sin(theta / 2.0) - 2.0 * deltab, 0.0)
     return l
