@@ -1,0 +1,49 @@
+"""Run every benchmark under bench/ in one go and collect their Markdown tables.
+
+Usage: ``python bench/run_all.py [--quick]`` (``make bench``). Each benchmark is
+a script printing a Markdown table; the tables are written to
+``bench/results/<name>.md`` and echoed. Run it on a quiet machine: the numbers
+in the README were produced this way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+BENCHES = ["bench_cylinder.py", "bench_calibration.py",
+           "bench_design.py", "bench_inflation.py"]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="pass --quick to every benchmark (small sizes)")
+    ap.add_argument("names", nargs="*", help="only these benchmarks (file names)")
+    args = ap.parse_args(argv)
+    out = HERE / "results"
+    out.mkdir(exist_ok=True)
+    failed = []
+    for name in args.names or BENCHES:
+        script = HERE / name
+        if not script.exists():
+            print(f"## {name}: missing", flush=True)
+            failed.append(name)
+            continue
+        cmd = [sys.executable, str(script)] + (["--quick"] if args.quick else [])
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=HERE.parent)
+        dt = time.perf_counter() - t0
+        text = proc.stdout + (f"\n(stderr tail)\n{proc.stderr[-2000:]}" if proc.returncode else "")
+        (out / f"{script.stem}.md").write_text(text)
+        print(f"## {name} ({dt:.0f} s, exit {proc.returncode})\n\n{text}", flush=True)
+        if proc.returncode:
+            failed.append(name)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
