@@ -3,8 +3,23 @@
 Public API (SI units: metres, 1/m):
 
 - :func:`kappa1`, :func:`string_length` -- Equation 3 and its inverse (``calib.model``).
+- :func:`read_manifest` -- the calibration manifest CSV (``calib.manifest``).
+- :func:`sample_posterior` -- emcee posterior of Delta, d and the scatter sigma (``calib.posterior``).
+- :func:`kappa_curve` -- calibrated kappa_1(l/L) with 68/95% bands (``calib.curve``).
+- :func:`calibrate` -- manifest -> scans -> fits -> posterior -> curve (``calib.calibrate``).
+- :func:`write_report`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.report``, ``calib.plots``).
 """
 
 from calib.model import bend_angle, flat_length, kappa1, kappa_max, string_length
 
+from calib.manifest import Manifest, read_manifest
+from calib.posterior import DEFAULT_PRIORS, Posterior, Priors, sample_posterior, specimen_data
+from calib.curve import KappaCurve, kappa_curve
+from calib.calibrate import Calibration, SpecimenFit, calibrate
+from calib.report import write_report
+from calib.plots import plot_corner, plot_curve
+
 __all__ = ["bend_angle", "flat_length", "kappa1", "kappa_max", "string_length"]
+__all__ += ["Manifest", "read_manifest", "DEFAULT_PRIORS", "Posterior", "Priors", "sample_posterior",
+            "specimen_data", "KappaCurve", "kappa_curve", "Calibration", "SpecimenFit", "calibrate",
+            "write_report", "plot_corner", "plot_curve"]

@@ -1,14 +1,57 @@
-"""`airmat calibrate`: not implemented yet."""
+"""`airmat calibrate MANIFEST --out DIR`: Equation 3's Delta and d from scans, with uncertainty."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 from airmat.errors import InputError
 
 
 def add_parser(sub, parents):
-    p = sub.add_parser("calibrate", parents=parents, help="(not implemented yet)")
+    p = sub.add_parser("calibrate", parents=parents,
+                       help="fit cylinders to specimen scans and sample the posterior of Delta and d",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("manifest", metavar="MANIFEST",
+                   help="CSV with columns scan,l_mm,L_mm[,surface_offset_mm]; scans relative to it")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder: calibration.json, posterior.npz, specimens.csv, curve.png, corner.png")
+    p.add_argument("--scan-units", choices=("m", "mm", "in"), default="mm",
+                   help="unit of the scan coordinates (default mm)")
+    p.add_argument("--walkers", type=int, default=32, help="emcee walkers (default 32)")
+    p.add_argument("--max-steps", type=int, default=4000,
+                   help="cap on the chain length in steps (default 4000)")
+    p.add_argument("--truth", metavar="JSON", default=None,
+                   help="truth.json of a synthetic set: marks the true values on the plots")
     p.set_defaults(func=run)
 
 
+def _read_truth(path):
+    if path is None:
+        return None
+    try:
+        truth = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError("truth file not found", path=path) from None
+    except (OSError, ValueError) as err:
+        raise InputError(f"cannot read the truth file: {err}", path=path) from None
+    if not isinstance(truth, dict) or not {"delta_mm", "d_mm"} <= truth.keys():
+        raise InputError("truth file must be a JSON object with delta_mm and d_mm", path=path)
+    return truth
+
+
 def run(args) -> int:
-    raise InputError("'airmat calibrate' is not implemented yet")
+    from airmat.atomic import staged_dir
+    from calib.calibrate import calibrate
+    from calib.plots import plot_corner, plot_curve
+    from calib.report import summary_text, write_report
+
+    truth = _read_truth(args.truth)
+    cal = calibrate(args.manifest, scan_units=args.scan_units, n_walkers=args.walkers,
+                    max_steps=args.max_steps, seed=args.seed)
+    with staged_dir(args.out) as tmp:
+        write_report(cal, tmp, truth=truth)
+        plot_curve(cal, tmp / "curve.png", truth=truth)
+        plot_corner(cal.posterior, tmp / "corner.png", truths=truth)
+    print(summary_text(cal, args.out))
+    return 0

@@ -1,14 +1,143 @@
-"""`airmat design`: not implemented yet."""
+"""`airmat design TARGET|--preset NAME --out DIR`: the string pattern that bends the mattress into a target."""
 
 from __future__ import annotations
 
+import logging
+import re
+
 from airmat.errors import InputError
+
+_SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*[xX×*]\s*(\d+(?:\.\d*)?)\s*$")
 
 
 def add_parser(sub, parents):
-    p = sub.add_parser("design", parents=parents, help="(not implemented yet)")
+    p = sub.add_parser("design", parents=parents,
+                       help="design the tension-string pattern for a target surface (paper §3)",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("target", nargs="?", metavar="TARGET",
+                   help="target surface mesh (OBJ, PLY, STL, OFF); or use --preset")
+    p.add_argument("--preset", metavar="NAME", help="a built-in target: vault1, saddle, dome (830x740 mm), "
+                                                    "vault2, roof (2600x1600 mm)")
+    p.add_argument("--mattress", metavar="WxH", help="mattress size in mm, e.g. 830x740 "
+                                                     "(required with TARGET; a preset brings its own)")
+    p.add_argument("--thickness-mm", type=float, default=None, help="inflated thickness (default 70)")
+    p.add_argument("--units", default="mm", help="units of the TARGET file: mm, cm, m, in (default mm)")
+    p.add_argument("--calibration", metavar="DIR", help="output folder of 'airmat calibrate'; without it the "
+                                                         "paper's values are used and outputs say UNCALIBRATED")
+    p.add_argument("--L-mm", dest="L_mm", type=float, default=None,
+                   help="geodesic spacing of string ends (default: the calibration's, paper 300)")
+    p.add_argument("--mu1-mm", type=float, default=400.0, help="period of the dashes along a line (default 400)")
+    p.add_argument("--mu2-mm", type=float, default=100.0, help="spacing of neighbouring lines (default 100)")
+    p.add_argument("--margin-mm", type=float, default=30.0, help="dashes stay this far from the edge (default 30)")
+    p.add_argument("--spacing-mm", type=float, default=20.0, help="mesh spacing of the mattress (default 20)")
+    p.add_argument("--step-mm", type=float, default=None, help="line integration step (default min(mu2/10, 10))")
+    p.add_argument("--kappa-min-per-m", type=float, default=0.25,
+                   help="|curvature| below which no string is needed (default 0.25 1/m)")
+    p.add_argument("--weight-min", type=float, default=0.02,
+                   help="lines stop where the principal-direction weight is below this (umbilics; "
+                        "0 traces through them; default 0.02)")
+    p.add_argument("--k-a1", type=float, default=1.0, help="U_A edge-length weight (default 1)")
+    p.add_argument("--k-a2", type=float, default=0.05, help="U_A closest-point weight (default 0.05)")
+    p.add_argument("--k-a3", type=float, default=0.02, help="U_A smoothing weight (default 0.02)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
+                        "cutting_list.csv, preview.png")
     p.set_defaults(func=run)
 
 
+def parse_size_mm(text: str) -> tuple[float, float]:
+    """``"830x740"`` -> (0.83, 0.74) m; InputError for anything else."""
+    m = _SIZE.match(text or "")
+    if not m or float(m.group(1)) <= 0 or float(m.group(2)) <= 0:
+        raise InputError(f"--mattress: expected WIDTHxHEIGHT in mm, e.g. 830x740, got {text!r}")
+    return float(m.group(1)) * 1e-3, float(m.group(2)) * 1e-3
+
+
+def _positive(args, names):
+    for name in names:
+        value = getattr(args, name)
+        if value is not None and not (value > 0 and value < float("inf")):
+            raise InputError(f"--{name.replace('_', '-')}: must be a positive number, got {value!r}")
+
+
+def _mattress_and_target(args):
+    """The mattress, and a function that loads the target (called after the cheap checks)."""
+    from data_synthetic.targets import preset
+    from design.mattress import Mattress
+    from design.target import load_target
+
+    if (args.target is None) == (args.preset is None):
+        raise InputError("give either a TARGET file or --preset NAME (not both, not neither)")
+    size = parse_size_mm(args.mattress) if args.mattress is not None else None
+    if args.preset is not None:
+        target, mattress = preset(args.preset)
+        width, height = size if size else (mattress.width, mattress.height)
+        thickness = mattress.thickness if args.thickness_mm is None else args.thickness_mm * 1e-3
+        return Mattress(width, height, thickness), lambda: target
+    if size is None:
+        raise InputError("--mattress WxH (mm) is required with a TARGET file, e.g. --mattress 830x740")
+    thickness = 0.07 if args.thickness_mm is None else args.thickness_mm * 1e-3
+    mattress = Mattress(size[0], size[1], thickness)
+    return mattress, lambda: load_target(args.target, units=args.units, mattress=mattress)
+
+
+def _params(args):
+    from design.pipeline import DesignParams
+
+    _positive(args, ["L_mm", "mu1_mm", "mu2_mm", "spacing_mm", "step_mm", "thickness_mm", "k_a1"])
+    if not (args.margin_mm >= 0 and args.kappa_min_per_m >= 0 and args.weight_min >= 0
+            and min(args.k_a2, args.k_a3) >= 0):
+        raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --k-a2 and --k-a3 must be >= 0")
+    mm = 1e-3
+    return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=args.mu1_mm * mm,
+                        mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.spacing_mm * mm,
+                        step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
+                        k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
+                        weight_min=args.weight_min)
+
+
+def summary_text(doc: dict, out) -> str:
+    """A few lines for stdout: strings per face and family, Table-1 figures, verdict, files."""
+    s, r = doc["summary"], doc["report"]
+    lines = [f"airmat design: {doc['name']} on a {doc['mattress']['width_mm']:.0f} x "
+             f"{doc['mattress']['height_mm']:.0f} mm mattress"
+             + ("  [UNCALIBRATED: paper values]" if doc["uncalibrated"] else "")]
+    for face in ("top", "bottom"):
+        lines.append(f"  {face:6s} face: {s['strings'][face]['k1']:3d} k1 strings, "
+                     f"{s['strings'][face]['k2']:3d} k2 strings")
+    lines.append(f"  dashes without string (|kappa| too small): k1 {s['no_string']['k1']}, "
+                 f"k2 {s['no_string']['k2']}")
+    sg, k1, k2 = r["sigma"], r["kappa1_per_m"], r["kappa2_per_m"]
+    lines.append(f"  sigma min/avg/max {sg['min']:.4f} / {sg['avg']:.4f} / {sg['max']:.4f}; "
+                 f"|k1| avg/max {k1['avg']:.2f} / {k1['max']:.2f} 1/m; |k2| avg/max {k2['avg']:.2f} / "
+                 f"{k2['max']:.2f} 1/m")
+    lines.append("  constructible: yes" if r["constructible"] else
+                 "  constructible: NO: " + "; ".join(r["reasons"]))
+    flagged = sum(1 for d in doc["dashes"] if "beyond_reach" in d["flags"])
+    if flagged:
+        lines.append(f"  {flagged} strings beyond reach of the calibration (flagged in design.json)")
+    lines.append(f"  wrote design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, cutting_list.csv, "
+                 f"preview.png to {out}")
+    return "\n".join(lines)
+
+
 def run(args) -> int:
-    raise InputError("'airmat design' is not implemented yet")
+    from airmat.atomic import staged_dir
+    from airmat.progress import progress_enabled
+    from design.calibration_source import PAPER, load_calibration
+    from design.pipeline import design, write_design
+    from design.stripes import check_stripe_params
+
+    logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines are about DXF internals
+    # cheap checks first, so that a bad argument is the only line on stderr
+    params = _params(args)
+    calibration = load_calibration(args.calibration) if args.calibration else None
+    mattress, load = _mattress_and_target(args)
+    L = params.L if params.L is not None else (calibration.L if calibration else PAPER["L"])
+    check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
+    result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
+                    progress=progress_enabled())
+    with staged_dir(args.out) as tmp:
+        doc = write_design(result, tmp)
+    print(summary_text(doc, args.out))
+    return 0

@@ -1,14 +1,48 @@
-"""`airmat synth`: not implemented yet."""
+"""`airmat synth OUTDIR`: write a synthetic calibration set (scans, manifest.csv, truth.json)."""
 
 from __future__ import annotations
 
 from airmat.errors import InputError
 
 
+def _ratios(text: str) -> tuple:
+    try:
+        values = tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise InputError(f"--l-over-L {text!r}: expected comma-separated numbers, "
+                         "e.g. 0.3,0.5,0.7,0.9") from None
+    return values
+
+
 def add_parser(sub, parents):
-    p = sub.add_parser("synth", parents=parents, help="(not implemented yet)")
+    p = sub.add_parser("synth", parents=parents,
+                       help="write a synthetic calibration set with known Delta, d and scatter",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("outdir", metavar="OUTDIR", help="output folder (created; files replaced)")
+    p.add_argument("--delta-mm", type=float, default=18.0, help="true string-end slip Delta (mm, default 18)")
+    p.add_argument("--d-mm", type=float, default=70.0, help="true mattress thickness d (mm, default 70)")
+    p.add_argument("--L-mm", type=float, default=300.0, dest="L_mm",
+                   help="geodesic distance L of the string ends (mm, default 300)")
+    p.add_argument("--l-over-L", default=None, dest="l_over_L", metavar="R1,R2,...",
+                   help="string length ratios (default: 12 from 0.3 to 0.95)")
+    p.add_argument("--points", type=int, default=100_000, help="points per scan (default 100000)")
+    p.add_argument("--scatter", type=float, default=0.03,
+                   help="log-sd of the lognormal specimen-to-specimen curvature scatter (default 0.03)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    raise InputError("'airmat synth' is not implemented yet")
+    from airmat.units import MM
+    from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
+
+    ratios = DEFAULT_L_OVER_L if args.l_over_L is None else _ratios(args.l_over_L)
+    cs = calibration_set(args.outdir, delta=args.delta_mm * MM, d=args.d_mm * MM, L=args.L_mm * MM,
+                         l_over_L=ratios, n_points=args.points, scatter=args.scatter,
+                         seed=args.seed)
+    t = cs.truth
+    print(f"wrote {len(cs.scans)} scans ({args.points} points each), manifest.csv and truth.json "
+          f"to {cs.folder}\n"
+          f"truth: Delta = {t['delta_mm']:g} mm, d = {t['d_mm']:g} mm, L = {t['L_mm']:g} mm, "
+          f"sigma = {t['sigma_per_m']:.3f} 1/m (flat from l = {t['flat_l_mm']:.1f} mm)\n"
+          f"next: airmat calibrate {cs.manifest} --out <DIR> --truth {cs.truth_path}")
+    return 0

@@ -1,0 +1,81 @@
+"""Benchmark: the whole designer on every preset, time split by stage.
+
+Usage::
+
+    .venv/bin/python bench/bench_design.py                      # all presets, 20 mm mesh
+    .venv/bin/python bench/bench_design.py --presets vault1 --spacing-mm 40
+
+Prints a Markdown table: seconds per stage (preset build, the surface
+side's triangulate / relax / curvature / report, transfer to Ω, stripes,
+string lengths, export of all files) and the totals, with the Table-1
+figures and string counts. Targets on the 2-core reference machine: small
+presets (830 × 740 mm) < 10 s, large (2600 × 1600 mm) < 60 s in total.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from data_synthetic.targets import PRESETS, preset  # noqa: E402
+from design.pipeline import DesignParams, design, write_design  # noqa: E402
+
+STAGES = ("preset", "triangulate", "relax", "curvature", "report", "transfer", "stripes", "lengths", "export")
+LIMITS = {"small": 10.0, "large": 60.0}
+
+
+def bench_one(name: str, spacing: float, seed: int = 0) -> dict:
+    """Design one preset end to end; returns the timings (s), the totals and a few results."""
+    t = time.perf_counter()
+    target, mattress = preset(name)
+    times = {"preset": time.perf_counter() - t}
+    result = design(target, mattress, params=DesignParams(spacing=spacing), seed=seed, progress=False)
+    times.update(result.timings)
+    with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        write_design(result, tmp)
+        times["export"] = time.perf_counter() - t
+    size = "small" if max(mattress.width, mattress.height) < 1.0 else "large"
+    r = result.approx.report
+    return {"name": name, "size": size, "times": times, "total": sum(times.values()),
+            "n_vertices": len(result.approx.uv), "converged": result.approx.relax.converged,
+            "strings": len(result.pattern.strings), "sigma": r.sigma, "kappa1": r.kappa1, "kappa2": r.kappa2,
+            "constructible": r.constructible}
+
+
+def markdown(rows: list[dict]) -> str:
+    """The results as a Markdown table."""
+    head = ["preset", "vertices", *STAGES, "total (s)", "target", "strings", "σ min/avg/max",
+            "|κ1| avg/max", "|κ2| avg/max", "relax conv."]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        t, s = r["times"], r["sigma"]
+        ok = "ok" if r["total"] < LIMITS[r["size"]] else "SLOW"
+        lines.append("| " + " | ".join([
+            r["name"], str(r["n_vertices"]), *(f"{t.get(k, 0.0):.2f}" for k in STAGES), f"{r['total']:.1f}",
+            f"< {LIMITS[r['size']]:.0f} s {ok}", str(r["strings"]),
+            f"{s['min']:.4f} / {s['avg']:.4f} / {s['max']:.4f}",
+            f"{r['kappa1']['avg']:.2f} / {r['kappa1']['max']:.2f}",
+            f"{r['kappa2']['avg']:.2f} / {r['kappa2']['max']:.2f}", str(r["converged"])]) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--presets", nargs="+", default=list(PRESETS), choices=PRESETS)
+    parser.add_argument("--spacing-mm", type=float, default=20.0, help="Ω mesh spacing (default 20 mm)")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    rows = [bench_one(name, args.spacing_mm * 1e-3) for name in args.presets]
+    print(markdown(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,338 @@
+"""Robust curvature of a scanned cylindrical specimen: ``fit_cylinder``.
+
+The pipeline, each step in its own module:
+
+1. local noise from voxel roughness (:mod:`calib.scan_noise`), which sets
+   every threshold (so they scale with the scanner, not bare constants);
+2. voxel downsampling that drops sparse clutter voxels and gives each
+   voxel a normal (:mod:`calib.voxel_grid`), then the support plane(s) the
+   specimen rests on (:mod:`calib.support_plane`, open3d ``segment_plane``),
+   taking care that a flat specimen is not one;
+3. axis from the scatter of the normals, circle by RANSAC (scikit-image)
+   in the projection along it, or a quadratic height field for a nearly
+   flat specimen (:mod:`calib.cylinder_init`);
+4. robust geometric least squares over axis direction, position and
+   curvature, first on the downsampled points, then on the
+   full-resolution points near the surface (:mod:`calib.cylinder_lsq`),
+   (a trust region on a subsample, then Gauss-Newton on all points), with
+   the standard error of kappa from a cluster-robust covariance.
+
+Steps 1-3 look at a random subset of at most 100,000 points; step 4 at
+every point near the surface.
+
+What is not a cylindrical arc (a sphere cap, a box, random points) is
+refused with :class:`airmat.errors.NotACylinderError` saying why.
+All lengths are in metres, curvatures in 1/m.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from airmat.errors import InputError, NotACylinderError
+from calib.cylinder_init import initial_cylinder
+from calib.groove_bands import groove_bands
+from calib.cylinder_lsq import arc_position, kappa_standard_error, polish, refine, residuals
+from calib.scan_noise import local_noise
+from calib.support_plane import find_support_planes
+from calib.voxel_grid import voxel_cloud
+
+__all__ = ["CylinderFit", "fit_cylinder", "MIN_FIT_POINTS"]
+
+log = logging.getLogger(__name__)
+
+#: fewest points fit_cylinder accepts
+MIN_FIT_POINTS = 50
+
+
+@dataclass(frozen=True)
+class CylinderFit:
+    """A cylinder fitted to a specimen scan (SI units).
+
+    Attributes
+    ----------
+    radius : float
+        Radius of the scanned face (m); ``inf`` when the specimen is flat
+        (kappa below twice its standard error).
+    kappa : float
+        Curvature ``1/R`` (1/m), >= 0. Near 0 the estimate is folded (its
+        sign is not observable without knowing the scanner side), so a
+        flat specimen gives kappa of the order of ``kappa_se``.
+    kappa_se : float
+        Standard error of kappa (1/m): the larger of the classical and the
+        cluster-robust (correlated residuals along the arc) estimates.
+    axis : ndarray of shape (3,)
+        Unit axis direction (for a flat specimen: the direction of least bending).
+    center : ndarray of shape (3,)
+        A point on the axis (m); for a flat specimen a point on the plane.
+    inlier_fraction : float
+        Inliers over the points off the support plane(s).
+    rms : float
+        RMS geometric residual of the inliers (m).
+    arc_deg : float
+        Angle of the arc the inliers cover (degrees).
+    n_points : int
+        Points given.
+    n_inliers : int
+        Points within three noise levels of the surface.
+    n_support : int
+        Points assigned to the floor/table plane(s).
+    noise : float
+        Scanner noise estimated from local roughness (m).
+    kappa_se_iid : float
+        Classical standard error of kappa, as if residuals were independent (1/m).
+    converged : bool
+        Whether the final least squares met its tolerance.
+    n_iter : int
+        Least-squares function evaluations, all stages.
+    residual : float
+        RMS residual of all points of the final least squares (m).
+    message : str
+        The final least squares' message.
+    """
+
+    radius: float
+    kappa: float
+    kappa_se: float
+    axis: np.ndarray
+    center: np.ndarray
+    inlier_fraction: float
+    rms: float
+    arc_deg: float
+    n_points: int
+    n_inliers: int
+    n_support: int
+    noise: float
+    kappa_se_iid: float
+    converged: bool
+    n_iter: int
+    residual: float
+    message: str
+
+
+def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fraction: float = 0.5,
+                 max_rms_ratio: float = 3.0, max_rms_rel: float = 0.002, inlier_sigmas: float = 3.0,
+                 band_sigmas: float = 5.0, max_planarity: float = 0.3, remove_support: bool = True,
+                 loss: str = "arctan", loss_sigmas: float = 2.0, groove_sigmas: float = 0.2,
+                 n_subsample: int = 50_000,
+                 n_clusters: int = 24) -> CylinderFit:
+    """Fit a cylinder to a scan of a bent specimen, robustly.
+
+    Parameters
+    ----------
+    points : array_like of shape (N, 3)
+        Scan points (m), finite; floor, clutter and holes allowed.
+    seed : int
+        Seed of every random step (subsampling, RANSAC).
+    noise : float, optional
+        Scanner noise standard deviation (m); estimated from local roughness
+        when omitted.
+    min_inlier_fraction : float
+        Refuse when fewer of the points off the supports are inliers.
+    max_rms_ratio, max_rms_rel : float
+        Refuse when the inliers' RMS exceeds both ``max_rms_ratio`` times
+        the noise and ``max_rms_rel`` times the inliers' extent (the second
+        keeps noise-free, slightly imperfect surfaces acceptable).
+    inlier_sigmas : float
+        Inlier band, in units of the residual scale.
+    band_sigmas : float
+        Points within this many noise levels enter the full-resolution fit.
+    max_planarity : float
+        Refuse when the normals' eigenvalue ratio exceeds this (sphere-like).
+    remove_support : bool
+        Look for and remove floor/table planes.
+    loss, loss_sigmas : str, float
+        Robust loss of the final fit and its scale in noise levels. The
+        default ``arctan`` redescends (weight ``1 / (1 + (e/f)^4)``): the
+        string-end grooves, several noise levels deep, lose their pull on R.
+    groove_sigmas : float
+        Arc bands whose median residual departs by more than this many noise
+        levels from the best cross-section circle (string-end grooves) are
+        left out of the fit (:mod:`calib.groove_bands`).
+    n_subsample : int
+        Points of the trust-region fit before the full-resolution
+        Gauss-Newton polish (speed).
+    n_clusters : int
+        Arc bins of the cluster-robust standard error.
+
+    Returns
+    -------
+    CylinderFit
+
+    Raises
+    ------
+    airmat.errors.NotACylinderError
+        (an InputError) when the points are not a cylindrical arc; the
+        message says why.
+    airmat.errors.InputError
+        For an array of the wrong shape or non-finite values.
+    """
+    pts = _check_points(points)
+    rng = np.random.default_rng(seed)
+    lo, hi = np.percentile(pts, [0.5, 99.5], axis=0)
+    diag = float(np.linalg.norm(hi - lo))
+    sub = pts[rng.choice(len(pts), _SUB, replace=False)] if len(pts) > _SUB else pts
+    est = local_noise(sub, seed=rng)
+    if not (est.roughness < 0.15):
+        raise NotACylinderError(
+            f"points do not sample a surface: local scatter {est.sigma * 1e3:.3g} mm in "
+            f"{est.voxel * 1e3:.3g} mm voxels", roughness=est.roughness)
+    sigma = float(noise) if noise is not None else max(est.sigma, 1e-6 * diag)
+    cand, n_support = _specimen_candidates(pts, sub, sigma, diag, remove_support, rng)
+    cand_sub = cand[rng.choice(len(cand), _SUB, replace=False)] if len(cand) > _SUB else cand
+    density = 24.0 / est.voxel**2 * len(pts) / len(sub)  # points per m^2 of surface, full scan
+    down = voxel_cloud(cand_sub, _voxel_for(len(cand), len(cand_sub), density, sigma), min_count=5).points
+    if len(down) < MIN_FIT_POINTS:
+        raise NotACylinderError(f"only {len(down)} surface voxels left off the floor plane(s)",
+                                n_points=len(down))
+    frame, init_in, scatter = initial_cylinder(
+        down, _normals(down), threshold=max(4 * sigma, 2e-3 * diag), max_planarity=max_planarity,
+        seed=int(rng.integers(2**31)))
+    stage = refine(down[init_in], frame, f_scale=sigma, max_nfev=100)
+    frame, final, used, n_more = _full_resolution(cand, stage.frame, sigma, band_sigmas, loss,
+                                                  loss_sigmas * sigma, n_subsample, groove_sigmas, rng)
+    return _summarize(cand, frame, final, used, pts, n_support, sigma, stage.n_iter + n_more, scatter,
+                      inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss,
+                      loss_sigmas * sigma, n_clusters)
+
+
+#: points the noise estimate, the plane search and the initialization look at (random subset)
+_SUB = 100_000
+
+
+def _check_points(points) -> np.ndarray:
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points must have shape (N, 3), got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise InputError(f"{int(np.count_nonzero(~np.isfinite(pts).all(axis=1)))} points have "
+                         f"non-finite coordinates (read_scan drops them)")
+    if len(pts) < MIN_FIT_POINTS:
+        raise NotACylinderError(f"only {len(pts)} points (need at least {MIN_FIT_POINTS})",
+                                n_points=len(pts))
+    return pts
+
+
+def _normals(points, knn=20):
+    """Unit normals of a downsampled cloud from its ``knn`` nearest neighbours (open3d)."""
+    import open3d as o3d
+
+    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=knn))
+    return np.asarray(cloud.normals)
+
+
+def _voxel_for(n_cand, n_cand_sub, density, sigma, fill=20.0, max_voxels=15_000):
+    """Voxel holding about ``fill`` points of the (subsampled) specimen, ``max_voxels`` at most.
+
+    ``density`` is the scan's points per m^2 of surface (from the noise voxels,
+    which hold about 24 points each).
+    """
+    area = n_cand / density
+    v_fill = np.sqrt(fill / (density * n_cand_sub / n_cand))
+    return float(max(v_fill, np.sqrt(area / max_voxels), 6 * sigma))
+
+
+def _specimen_candidates(pts, sub, sigma, diag, remove_support, rng):
+    """Points off the support plane(s), and how many were on them."""
+    if not remove_support:
+        return pts, 0
+    coarse = voxel_cloud(sub, diag / 100, min_count=3).points
+    if len(coarse) < MIN_FIT_POINTS:
+        return pts, 0
+    planes = find_support_planes(coarse, normals=_normals(coarse), threshold=4 * sigma,
+                                 reference=sub[:20_000], seed=int(rng.integers(2**31)))
+    on = planes.support_mask(pts)
+    n_support = int(np.count_nonzero(on))
+    if n_support:
+        log.debug("removed %d points on %d support plane(s)", n_support, len(planes.supports))
+    return pts[~on], n_support
+
+
+def _full_resolution(cand, frame, sigma, band_sigmas, loss, f_scale, n_subsample, groove_sigmas, rng,
+                     n_rounds=4):
+    """Robust fit on the full-resolution points near the surface.
+
+    Rounds on a random subset of at most ``n_subsample`` points: select the
+    points within the band minus the groove bands
+    (:func:`calib.groove_bands.groove_bands`) and refit, until the selection
+    settles; then the same selection on every point and Gauss-Newton steps
+    on all of them (:func:`calib.cylinder_lsq.polish`, which starts within
+    the subsample's sampling error of the optimum).
+    """
+    sub = cand[rng.choice(len(cand), n_subsample, replace=False)] if len(cand) > n_subsample else cand
+    seed = int(rng.integers(2**31))
+    n_iter, used = 0, None
+    for _ in range(n_rounds):
+        keep, grooves = _select(sub, frame, sigma, band_sigmas, groove_sigmas, seed)
+        settled = used is not None and np.count_nonzero(keep != used) < 1e-3 * len(sub)
+        used = keep
+        result = polish(sub[keep], frame, f_scale=f_scale, loss=loss)
+        n_iter += result.n_iter
+        frame = result.frame
+        if settled:
+            break
+    if sub is not cand:
+        keep = np.abs(residuals(cand, frame)) < band_sigmas * sigma
+        keep[keep] = ~grooves.classify(cand[keep], frame)
+        result = polish(cand[keep], frame, f_scale=f_scale, loss=loss, max_iter=5)
+        n_iter += result.n_iter
+        frame = result.frame
+    return frame, result, keep, n_iter
+
+
+def _select(points, frame, sigma, band_sigmas, groove_sigmas, seed):
+    """(N,) bool: points within ``band_sigmas`` noise levels of the surface, outside groove bands."""
+    e = residuals(points, frame)
+    near = np.abs(e) < band_sigmas * sigma
+    if near.sum() < MIN_FIT_POINTS:
+        raise NotACylinderError(f"only {int(near.sum())} points within {band_sigmas:g} noise "
+                                f"levels of the fitted cylinder")
+    idx = np.flatnonzero(near)
+    grooves = groove_bands(points[idx], frame, sigma=sigma, seed=seed, tol_sigmas=groove_sigmas)
+    near[idx[grooves.excluded]] = False
+    return near, grooves
+
+
+def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter, inlier_sigmas,
+               min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters):
+    e = residuals(cand, frame)
+    near = np.abs(e) < 10 * sigma
+    scale = 1.4826 * float(np.median(np.abs(e[near]))) if near.any() else np.inf
+    inl = np.abs(e) < inlier_sigmas * max(sigma, scale)
+    n_inl = int(np.count_nonzero(inl))
+    frac = n_inl / len(cand)
+    if frac < min_inlier_fraction:
+        raise NotACylinderError(f"only {100 * frac:.0f}% inliers (need {100 * min_inlier_fraction:.0f}%)"
+                                + _why(scatter), inlier_fraction=frac)
+    rms = float(np.sqrt(np.mean(e[inl] ** 2)))
+    ext = float(np.linalg.norm(np.ptp(cand[inl], axis=0)))
+    if rms > max_rms_ratio * sigma and rms > max_rms_rel * ext:
+        raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {sigma * 1e3:.2g} mm noise"
+                                + _why(scatter), rms=rms, noise=sigma)
+    se_iid, se_cl = kappa_standard_error(cand[used], frame, f_scale=f_scale, loss=loss,
+                                         n_clusters=n_clusters)
+    kappa, se = abs(frame.kappa), max(se_iid, se_cl)
+    flat = kappa < 2 * se
+    center = frame.origin if flat else frame.origin + frame.normal / frame.kappa
+    s = arc_position(cand[inl], frame)
+    q_lo, q_hi = np.quantile(s, [0.005, 0.995])
+    arc = float(np.degrees((q_hi - q_lo) / 0.99 * kappa))
+    axis = frame.axis * np.sign(frame.axis[np.argmax(np.abs(frame.axis))])
+    if not final.converged:
+        log.warning("cylinder least squares did not converge: %s", final.message)
+    return CylinderFit(radius=np.inf if flat else 1.0 / kappa, kappa=kappa, kappa_se=se, axis=axis,
+                       center=center, inlier_fraction=frac, rms=rms, arc_deg=arc, n_points=len(pts),
+                       n_inliers=n_inl, n_support=n_support, noise=sigma, kappa_se_iid=se_iid,
+                       converged=final.converged, n_iter=n_iter,
+                       residual=float(np.sqrt(np.mean(e[used] ** 2))), message=final.message)
+
+
+def _why(scatter) -> str:
+    if scatter.spread_deg >= 20 and scatter.planarity > 0.1:
+        return f"; normals do not lie well in a plane (eigenvalue ratio {scatter.planarity:.2f}, sphere-like?)"
+    return ""

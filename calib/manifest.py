@@ -1,0 +1,173 @@
+"""The calibration manifest: which scan shows which string length.
+
+A CSV file with a header and one row per scanned specimen::
+
+    scan,l_mm,L_mm,surface_offset_mm
+    specimen_00.ply,90.0,300.0,0
+    specimen_01.ply,107.7,300.0,0
+
+- ``scan``: the scan file, relative to the manifest's folder (or absolute);
+- ``l_mm``: string length (mm), ``0 < l <= L``;
+- ``L_mm``: geodesic distance of the string ends on the mattress (mm), > 0;
+- ``surface_offset_mm`` (optional, default 0): when the scanned face is not
+  the reference face, the curvature is ``kappa = 1 / (R + offset)``.
+
+Blank lines and lines starting with ``#`` are ignored. Values are converted
+to metres here; the library works in SI.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from airmat.errors import InputError
+from airmat.units import MM
+
+__all__ = ["Manifest", "read_manifest", "write_manifest_text", "REQUIRED_COLUMNS", "N_PARAMETERS"]
+
+REQUIRED_COLUMNS = ("scan", "l_mm", "L_mm")
+OPTIONAL_COLUMNS = ("surface_offset_mm",)
+#: parameters of the calibration (Delta, d, sigma): at least this many specimens
+N_PARAMETERS = 3
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A checked calibration manifest (SI units).
+
+    Attributes
+    ----------
+    path : str
+        The manifest file.
+    scans : tuple of str
+        Scan file names as written in the manifest.
+    scan_paths : tuple of str
+        The scan files, resolved against the manifest's folder.
+    l, L, surface_offset : ndarray of shape (S,)
+        String length, string-end distance and surface offset (m).
+    """
+
+    path: str
+    scans: tuple
+    scan_paths: tuple
+    l: np.ndarray
+    L: np.ndarray
+    surface_offset: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.scans)
+
+
+def _rows(path: Path):
+    """Header and (line number, row) pairs of a CSV file, comments and blanks skipped."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError("manifest not found", path=path) from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"cannot read the manifest: {err}", path=path) from None
+    lines = [(i, ln) for i, ln in enumerate(text.splitlines(), start=1)
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise InputError("empty manifest: expected a header "
+                         f"{','.join(REQUIRED_COLUMNS)}", path=path)
+    parsed = list(csv.reader([ln for _, ln in lines]))
+    header = [h.strip() for h in parsed[0]]
+    return header, [(lines[k][0], [c.strip() for c in row]) for k, row in enumerate(parsed) if k]
+
+
+def _number(value: str, column: str, line: int, path: Path) -> float:
+    try:
+        x = float(value)
+    except ValueError:
+        raise InputError(f"line {line}: {column} = {value!r} is not a number", path=path,
+                         line=line, column=column) from None
+    if not math.isfinite(x):
+        raise InputError(f"line {line}: {column} = {value!r} is not finite", path=path,
+                         line=line, column=column)
+    return x
+
+
+def _check_row(line, scan, l_mm, L_mm, path):
+    if L_mm <= 0:
+        raise InputError(f"line {line}: L_mm = {L_mm:g} must be > 0", path=path, line=line)
+    if not 0 < l_mm <= L_mm:
+        raise InputError(f"line {line}: l_mm = {l_mm:g} must satisfy 0 < l <= L = {L_mm:g}",
+                         path=path, line=line)
+    if not scan:
+        raise InputError(f"line {line}: empty scan name", path=path, line=line)
+
+
+def read_manifest(path, *, check_files: bool = True) -> Manifest:
+    """Read and check a calibration manifest.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The CSV file (columns ``scan,l_mm,L_mm[,surface_offset_mm]``, lengths in mm).
+    check_files : bool
+        Check that every scan file exists.
+
+    Returns
+    -------
+    Manifest
+        Lengths in metres.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        With ``path`` the manifest: missing file, missing columns (named),
+        non-numeric or non-finite values (line number), ``l <= 0``, ``l > L``,
+        ``L <= 0``, a scan listed twice, a missing scan file, or fewer
+        specimens than the calibration's parameters.
+    """
+    path = Path(path)
+    header, rows = _rows(path)
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise InputError(f"missing column(s) {', '.join(missing)}: the header must contain "
+                         f"{','.join(REQUIRED_COLUMNS)} (found {','.join(header)})",
+                         path=path, missing=missing)
+    col = {name: header.index(name) for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in header}
+    scans, paths, values, seen = [], [], [], {}
+    for line, row in rows:
+        if len(row) < len(header):
+            raise InputError(f"line {line}: {len(row)} values for {len(header)} columns",
+                             path=path, line=line)
+        scan = row[col["scan"]]
+        l_mm = _number(row[col["l_mm"]], "l_mm", line, path)
+        L_mm = _number(row[col["L_mm"]], "L_mm", line, path)
+        off = row[col["surface_offset_mm"]] if "surface_offset_mm" in col else ""
+        off_mm = _number(off, "surface_offset_mm", line, path) if off else 0.0
+        _check_row(line, scan, l_mm, L_mm, path)
+        resolved = (path.parent / scan).resolve()
+        if resolved in seen:
+            raise InputError(f"line {line}: scan {scan!r} is listed twice (also on line "
+                             f"{seen[resolved]})", path=path, line=line)
+        seen[resolved] = line
+        if check_files and not resolved.is_file():
+            raise InputError(f"line {line}: scan file {scan!r} not found (looked for {resolved})",
+                             path=path, line=line)
+        scans.append(scan)
+        paths.append(str(resolved))
+        values.append((l_mm, L_mm, off_mm))
+    if len(scans) < N_PARAMETERS:
+        raise InputError(f"{len(scans)} specimen(s) cannot determine the {N_PARAMETERS} parameters "
+                         f"(Delta, d, sigma): list at least {N_PARAMETERS} scans", path=path)
+    v = np.array(values, dtype=float) * MM
+    return Manifest(path=str(path), scans=tuple(scans), scan_paths=tuple(paths),
+                    l=v[:, 0], L=v[:, 1], surface_offset=v[:, 2])
+
+
+def write_manifest_text(scans, l_mm, L_mm, surface_offset_mm=None) -> str:
+    """The CSV text of a manifest (used by the synthetic calibration sets)."""
+    lines = ["scan,l_mm,L_mm" + (",surface_offset_mm" if surface_offset_mm is not None else "")]
+    offs = surface_offset_mm if surface_offset_mm is not None else [None] * len(scans)
+    for s, l, L, o in zip(scans, l_mm, L_mm, offs):
+        lines.append(f"{s},{l:.6g},{L:.6g}" + (f",{o:.6g}" if o is not None else ""))
+    return "\n".join(lines) + "\n"

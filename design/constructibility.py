@@ -1,0 +1,135 @@
+"""Is Ŝ constructible? The Table-1 figures of the paper and a verdict that says where.
+
+σ is the ratio of an edge's length on Ŝ to its length on Ω (1: the membrane
+is neither stretched nor compressed). Ŝ is declared unconstructible when
+some σ leaves the tolerance band (the mattress cannot stretch, and can
+contract only a little) or some |κ| exceeds what a string can produce with
+the calibration (Equation 3 at l = 0: :func:`calib.model.kappa_max`).
+Locations are given in millimetres on Ω. Units: m and 1/m inside.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from design.relax import mesh_edges
+
+__all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX"]
+
+
+def _paper_kappa_max() -> float:
+    from calib.model import kappa_max
+
+    return float(kappa_max(0.30, 0.018, 0.070))
+
+
+#: largest curvature (1/m) a string reaches with the paper's calibration (L 300, Δ 18, d 70 mm)
+PAPER_KAPPA_MAX = _paper_kappa_max()
+
+
+@dataclass(frozen=True)
+class ConstructibilityReport:
+    """Table-1 figures of Ŝ and the verdict.
+
+    Attributes
+    ----------
+    sigma : dict
+        ``min``, ``avg``, ``max`` of the edge length ratio Ŝ / Ω.
+    kappa1, kappa2 : dict
+        ``avg`` (area-weighted over Ω) and ``max`` of |κ1| and |κ2| (1/m).
+    constructible : bool
+    reasons : list of str
+        Why not, with where (mm on Ω); empty when constructible.
+    sigma_band : tuple of float
+        The tolerance band used for σ.
+    kappa_max : float
+        The reachable curvature used (1/m).
+    """
+
+    sigma: dict
+    kappa1: dict
+    kappa2: dict
+    constructible: bool
+    reasons: list = field(default_factory=list)
+    sigma_band: tuple = (0.9, 1.02)
+    kappa_max: float = PAPER_KAPPA_MAX
+
+    def table_row(self) -> str:
+        """``σ min/avg/max | |κ1| avg // max | |κ2| avg // max`` as one Markdown table row body."""
+        s, k1, k2 = self.sigma, self.kappa1, self.kappa2
+        return (f"{s['min']:.4f} / {s['avg']:.4f} / {s['max']:.4f} | {k1['avg']:.2f} // {k1['max']:.2f} | "
+                f"{k2['avg']:.2f} // {k2['max']:.2f}")
+
+
+def edge_sigma(xyz, uv, faces):
+    """Edges (e, 2) and their length ratio σ = |edge on Ŝ| / |edge on Ω|, shape (e,)."""
+    edges = mesh_edges(np.asarray(faces))
+    num = np.linalg.norm(xyz[edges[:, 0]] - xyz[edges[:, 1]], axis=1)
+    den = np.linalg.norm(uv[edges[:, 0]] - uv[edges[:, 1]], axis=1)
+    return edges, num / den
+
+
+def _cross2(a, b):
+    """z component of the cross product of 2-vectors (k, 2)."""
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def _vertex_areas(uv, faces):
+    area = 0.5 * np.abs(_cross2(uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]))
+    return np.bincount(faces.ravel(), weights=np.repeat(area / 3, 3), minlength=len(uv))
+
+
+def _where(points_mm):
+    x, y = np.round(points_mm).astype(int)
+    return f"({x}, {y}) mm on Ω"
+
+
+def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.02),
+                     kappa_max: float | None = None) -> ConstructibilityReport:
+    """Table-1 figures of Ŝ and whether the mattress can make it.
+
+    Parameters
+    ----------
+    xyz : ndarray of shape (n, 3)
+        Vertices of Ŝ (m).
+    uv : ndarray of shape (n, 2)
+        The same vertices on Ω (m).
+    faces : ndarray of shape (m, 3)
+    kappa : ndarray of shape (n, 2)
+        Signed principal curvatures (1/m), column 0 the larger magnitude.
+    sigma_band : (float, float), default (0.9, 1.02)
+        Tolerated σ: the membrane may contract by 10 % (wrinkles) but barely stretch.
+    kappa_max : float, optional
+        Reachable curvature (1/m); default the paper's calibration, 15.66 1/m.
+
+    Returns
+    -------
+    ConstructibilityReport
+    """
+    xyz, uv, faces, kappa = (np.asarray(a) for a in (xyz, uv, faces, kappa))
+    kappa_max = PAPER_KAPPA_MAX if kappa_max is None else float(kappa_max)
+    lo, hi = sigma_band
+    edges, sig = edge_sigma(xyz, uv, faces)
+    mid_mm = 500.0 * (uv[edges[:, 0]] + uv[edges[:, 1]])
+    area = _vertex_areas(uv, faces)
+    absk = np.abs(kappa)
+    reasons = []
+    for bad, worst, word in ((sig < lo, np.argmin(sig), f"below {lo:g}"),
+                             (sig > hi, np.argmax(sig), f"above {hi:g}")):
+        if bad.any():
+            reasons.append(f"σ = {sig[worst]:.3f} at {_where(mid_mm[worst])} "
+                           f"({int(bad.sum())} of {len(sig)} edges {word}: the mattress cannot "
+                           f"{'contract' if word.startswith('below') else 'stretch'} that much)")
+    over = absk.max(axis=1) > kappa_max
+    if over.any():
+        i = int(np.argmax(absk.max(axis=1)))
+        reasons.append(f"|κ| = {absk[i].max():.1f} 1/m at {_where(1e3 * uv[i])} exceeds the reachable "
+                       f"{kappa_max:.2f} 1/m ({int(over.sum())} of {len(uv)} vertices)")
+    return ConstructibilityReport(
+        sigma={"min": float(sig.min()), "avg": float(sig.mean()), "max": float(sig.max())},
+        kappa1={"avg": float(area @ absk[:, 0] / area.sum()), "max": float(absk[:, 0].max())},
+        kappa2={"avg": float(area @ absk[:, 1] / area.sum()), "max": float(absk[:, 1].max())},
+        constructible=not reasons, reasons=reasons, sigma_band=(float(lo), float(hi)),
+        kappa_max=kappa_max)

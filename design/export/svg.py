@@ -1,0 +1,112 @@
+"""``pattern.svg``: both faces of the mattress at 1:1 in millimetres, for printing or a plotter.
+
+The top face is drawn as seen from above (u to the right, v up). The bottom
+face, to its right, is drawn **as seen from below**, i.e. mirrored left-right
+(u → W − u), the way it lies in front of you once the mattress is turned over
+about its v axis; the caption says so, and each face marks its Ω origin corner.
+Each string is a line from end a to end b along its dash, with dots at the
+tie points and its id beside it; k1 and k2 have different colours.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+from airmat.atomic import atomic_write_bytes
+
+__all__ = ["write_svg", "svg_transform", "LAYOUT"]
+
+#: page layout (mm): outer padding, gap between the faces, title and caption bands, text sizes
+LAYOUT = {"pad": 20.0, "gap": 80.0, "title": 40.0, "caption": 30.0, "font": 8.0, "title_font": 14.0}
+COLOURS = {"k1": "#c0392b", "k2": "#1f5fa8"}
+_NS = "http://www.w3.org/2000/svg"
+
+
+def svg_transform(face: str, u_mm, v_mm, width_mm: float, height_mm: float):
+    """Page coordinates (mm) of Ω points on a face: ``(x, y)`` with y down, as drawn in the SVG.
+
+    Parameters
+    ----------
+    face : {"top", "bottom"}
+    u_mm, v_mm : float or ndarray
+        Ω coordinates (mm).
+    width_mm, height_mm : float
+        W and H (mm).
+    """
+    pad, top = LAYOUT["pad"], LAYOUT["pad"] + LAYOUT["title"]
+    y = top + (height_mm - v_mm)
+    if face == "top":
+        return pad + u_mm, y
+    return pad + width_mm + LAYOUT["gap"] + (width_mm - u_mm), y
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.2f}"
+
+
+def _text(parent, x, y, s, size, anchor="start", weight=None):
+    el = ET.SubElement(parent, "text", {"x": _fmt(x), "y": _fmt(y), "font-size": _fmt(size),
+                                        "font-family": "sans-serif", "text-anchor": anchor})
+    if weight:
+        el.set("font-weight", weight)
+    el.text = s
+    return el
+
+
+def _face(svg, doc, face):
+    W, H = doc["mattress"]["width_mm"], doc["mattress"]["height_mm"]
+    g = ET.SubElement(svg, "g", {"id": f"face-{face}"})
+    x0, y0 = svg_transform(face, 0.0, H, W, H)
+    x1, _ = svg_transform(face, W, H, W, H)
+    ET.SubElement(g, "rect", {"x": _fmt(min(x0, x1)), "y": _fmt(y0), "width": _fmt(W), "height": _fmt(H),
+                              "fill": "none", "stroke": "black", "stroke-width": "0.5"})
+    ox, oy = svg_transform(face, 0.0, 0.0, W, H)
+    ET.SubElement(g, "circle", {"cx": _fmt(ox), "cy": _fmt(oy), "r": "3", "fill": "black"})
+    _text(g, ox, oy + 12, "origin u=0, v=0", LAYOUT["font"], "middle")
+    label = "TOP face, seen from above" if face == "top" else "BOTTOM face, seen from below (mirrored)"
+    _text(g, min(x0, x1), y0 - 4, label, LAYOUT["font"] * 1.25, weight="bold")
+    for dash in doc["dashes"]:
+        if dash["side"] != face:
+            continue
+        pts = [svg_transform(face, u, v, W, H) for u, v in dash["polyline_mm"]]
+        colour = COLOURS.get(dash["family"], "black")
+        dg = ET.SubElement(g, "g", {"id": dash["id"], "class": f"{face} {dash['family']}"})
+        ET.SubElement(dg, "title").text = (f"{dash['id']}: l = {dash['l_mm']['median']:.1f} mm "
+                                           f"[{dash['l_mm']['lo95']:.1f}, {dash['l_mm']['hi95']:.1f}]")
+        ET.SubElement(dg, "polyline", {"points": " ".join(f"{_fmt(x)},{_fmt(y)}" for x, y in pts),
+                                       "fill": "none", "stroke": colour, "stroke-width": "2"})
+        for x, y in (pts[0], pts[-1]):
+            ET.SubElement(dg, "circle", {"cx": _fmt(x), "cy": _fmt(y), "r": "2.5", "fill": colour})
+        mx, my = pts[len(pts) // 2]
+        _text(dg, mx, my - 3, dash["id"], LAYOUT["font"], "middle")
+
+
+def write_svg(path, doc: dict) -> None:
+    """Write ``pattern.svg`` from a design document (see :mod:`design.export.design_json`).
+
+    The page is ``2 W + gap + 2 pad`` by ``H + title + caption + pad`` millimetres,
+    ``width``/``height`` in mm and the ``viewBox`` in mm, so it prints at 1:1.
+    """
+    W, H = doc["mattress"]["width_mm"], doc["mattress"]["height_mm"]
+    L = LAYOUT
+    page_w = 2 * W + L["gap"] + 2 * L["pad"]
+    page_h = H + L["title"] + L["caption"] + L["pad"]
+    ET.register_namespace("", _NS)
+    svg = ET.Element("svg", {"xmlns": _NS, "version": "1.1", "width": f"{_fmt(page_w)}mm",
+                             "height": f"{_fmt(page_h)}mm", "viewBox": f"0 0 {_fmt(page_w)} {_fmt(page_h)}"})
+    title = f"airmat string pattern: {doc.get('name', '')}"
+    if doc.get("uncalibrated", doc["calibration"].get("uncalibrated")):
+        title += "  UNCALIBRATED (paper values, nominal tolerances)"
+    ET.SubElement(svg, "title").text = title
+    _text(svg, L["pad"], L["pad"] + L["title_font"], title, L["title_font"], weight="bold")
+    cal = doc["calibration"]
+    sub = (f"mattress {W:.0f} x {H:.0f} x {doc['mattress']['thickness_mm']:.0f} mm; L = {cal['L_mm']:.0f} mm; "
+           f"{len(doc['dashes'])} strings; scale 1:1, units mm; colours: k1 red, k2 blue")
+    _text(svg, L["pad"], L["pad"] + L["title_font"] + 12, sub, L["font"])
+    for face in ("top", "bottom"):
+        _face(svg, doc, face)
+    cap = ("Bottom face drawn as seen from below: mirrored left-right (u -> W - u), as it lies after turning the "
+           "mattress over about its v axis. Dots are tie points; lengths in cutting_list.csv.")
+    _text(svg, L["pad"], L["pad"] + L["title"] + H + 18, cap, L["font"])
+    ET.indent(svg)
+    atomic_write_bytes(path, ET.tostring(svg, encoding="utf-8", xml_declaration=True) + b"\n")

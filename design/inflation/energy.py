@@ -1,0 +1,288 @@
+"""The energy U_B of Equation 5: its terms, gradient and Hessian blocks.
+
+U_B = U_B1 (edge springs) + U_B2 (-p Vol) + U_B3 (internal strings)
++ U_B4 (external clamp strings) + U_B5 (Laplacian smoothing).
+
+U_B1, U_B3 and U_B4 are all springs ``1/2 k (|r| - r0)^2`` on a vector
+``r = sum_k c_k x_{i_k}`` that combines a few vertices: an edge is
+``x_j - x_i``; an external string joins two points fixed on the face by
+barycentric coordinates, ``r = sum_a w_a x_a - sum_b w_b x_b`` (six
+vertices). One vectorized kernel evaluates every spring group. Springs may
+be tension-only (``u_m`` of Equation 5, the ClampLength goal): zero energy
+while ``|r| < r0``. The internal strings (loop pins) are tension-only too:
+a pin is a string, it can go slack where the face folds inward.
+
+Hessians come as dense 3 × 3 blocks per vertex pair, assembled into a sparse
+matrix by :mod:`design.inflation.assembly`. The spring blocks are
+projected per element to be positive semi-definite (the transverse term
+``k (1 - r0/|r|)`` is clamped at 0 for a compressed spring); the pressure
+term ``-p Vol`` is exact (indefinite: the solver shifts if needed).
+All quantities are SI: metres, newtons, pascals, joules.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Springs", "Model", "spring_terms", "volume_terms", "smoothing_matrix",
+           "energy", "energy_and_gradient", "hessian_blocks", "pressure_forces"]
+
+
+@dataclass(frozen=True)
+class Springs:
+    """A group of springs on combinations of vertices.
+
+    Attributes
+    ----------
+    idx : ndarray of shape (s, k)
+        Vertex indices combined by each spring.
+    coef : ndarray of shape (s, k)
+        Their coefficients: ``r = sum_k coef[:, k] * x[idx[:, k]]``.
+    rest : ndarray of shape (s,)
+        Rest length r0 (m).
+    stiffness : ndarray of shape (s,)
+        Spring constant k (N/m).
+    tension_only : bool
+        Clamp springs: no force while shorter than ``rest``.
+    name : str
+        Label of the term (``"B1"``, ``"B3"``, ``"B4"``).
+    """
+
+    idx: np.ndarray
+    coef: np.ndarray
+    rest: np.ndarray
+    stiffness: np.ndarray
+    tension_only: bool
+    name: str
+
+    def lengths(self, x: np.ndarray) -> np.ndarray:
+        """Current length |r| (m) of every spring at positions ``x`` (n, 3)."""
+        return np.linalg.norm(np.einsum("sk,skc->sc", self.coef, x[self.idx]), axis=1)
+
+
+@dataclass(frozen=True)
+class Model:
+    """Everything U_B needs besides the positions.
+
+    Attributes
+    ----------
+    n_vertices : int
+    faces : ndarray of shape (m, 3)
+        Closed, outward-oriented triangles (for the enclosed volume).
+    springs : tuple of Springs
+        B1 (edges), B3 (internal strings), B4 (external strings).
+    pressure : float
+        p (Pa).
+    smoothing : scipy.sparse.csr_matrix of shape (n, n)
+        ``k5 A^T A`` with ``A = I - W`` the per-face uniform Laplacian, so
+        that ``U_B5 = 1/2 tr(X^T Q X)`` (N/m).
+    """
+
+    n_vertices: int
+    faces: np.ndarray
+    springs: tuple
+    pressure: float
+    smoothing: sp.csr_matrix
+
+
+def spring_terms(x: np.ndarray, s: Springs, *, gradient: bool = True, hessian: bool = False,
+                 project: bool = True):
+    """Energy, gradient and PSD-projected Hessian blocks of a spring group.
+
+    Parameters
+    ----------
+    x : ndarray of shape (n, 3)
+        Vertex positions (m).
+    s : Springs
+
+    Returns
+    -------
+    energy : float
+        J.
+    grad : ndarray of shape (n, 3) or None
+        N.
+    blocks : ndarray of shape (s, k, k, 3, 3) or None
+        ``blocks[q, a, b]`` is d²U/dx_{idx[q,a]} dx_{idx[q,b]} (N/m).
+    """
+    r = np.einsum("sk,skc->sc", s.coef, x[s.idx])
+    length = np.linalg.norm(r, axis=1)
+    stretch = length - s.rest
+    k = s.stiffness * (stretch > 0) if s.tension_only else s.stiffness
+    e = 0.5 * float(np.sum(k * stretch ** 2))
+    if not (gradient or hessian):
+        return e, None, None
+    rhat = r / np.maximum(length, 1e-300)[:, None]
+    grad = None
+    if gradient:
+        g_r = (k * stretch)[:, None] * rhat
+        contrib = s.coef[:, :, None] * g_r[:, None, :]
+        grad = np.column_stack([np.bincount(s.idx.ravel(), weights=contrib[..., c].ravel(),
+                                            minlength=len(x)) for c in range(3)])
+    blocks = None
+    if hessian:
+        geo = stretch / np.maximum(length, 1e-300)
+        if project:                               # PSD: no negative transverse stiffness
+            geo = np.clip(geo, 0.0, None)
+        # a clamp spring exactly at its rest length (a pin at the start) counts as taut
+        kh = s.stiffness * (stretch >= 0) if s.tension_only else s.stiffness
+        rr = rhat[:, :, None] * rhat[:, None, :]
+        h_r = kh[:, None, None] * (rr + geo[:, None, None] * (np.eye(3) - rr))
+        cc = s.coef[:, :, None] * s.coef[:, None, :]
+        blocks = cc[:, :, :, None, None] * h_r[:, None, None, :, :]
+    return e, grad, blocks
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices [v]x, shape (m, 3, 3), of vectors (m, 3)."""
+    z = np.zeros(len(v))
+    return np.stack([np.stack([z, -v[:, 2], v[:, 1]], 1),
+                     np.stack([v[:, 2], z, -v[:, 0]], 1),
+                     np.stack([-v[:, 1], v[:, 0], z], 1)], 1)
+
+
+#: ordered vertex pairs (a, b) of a triangle with the third vertex c and the sign
+#: of d²Vol/dx_a dx_b = sign [x_c]x / 6
+VOLUME_PAIRS = ((0, 1, 2, -1.0), (1, 0, 2, 1.0), (1, 2, 0, -1.0), (2, 1, 0, 1.0),
+                (2, 0, 1, -1.0), (0, 2, 1, 1.0))
+
+
+def volume_terms(x: np.ndarray, faces: np.ndarray, *, gradient: bool = True, hessian: bool = False):
+    """Enclosed volume of a closed mesh, its exact gradient and Hessian blocks.
+
+    ``Vol = sum_f x_a . (x_b × x_c) / 6`` (computed about the centroid, which
+    a closed mesh allows, for round-off); ``dVol/dx_a = sum_f x_b × x_c / 6``.
+
+    Returns
+    -------
+    vol : float
+        m³.
+    grad : ndarray of shape (n, 3) or None
+        m².
+    blocks : ndarray of shape (m, 6, 3, 3) or None
+        d²Vol/dx_a dx_b for the ordered pairs of :data:`VOLUME_PAIRS` (m).
+    """
+    xc = x - x.mean(axis=0)
+    a, b, c = xc[faces[:, 0]], xc[faces[:, 1]], xc[faces[:, 2]]
+    vol = float(np.einsum("ij,ij->", a, np.cross(b, c))) / 6.0
+    grad = None
+    if gradient:
+        per_corner = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=1) / 6.0
+        grad = np.column_stack([np.bincount(faces.ravel(), weights=per_corner[..., k].ravel(),
+                                            minlength=len(x)) for k in range(3)])
+    blocks = None
+    if hessian:
+        corners = (a, b, c)
+        blocks = np.stack([sign * _skew(corners[k]) / 6.0 for _, _, k, sign in VOLUME_PAIRS], axis=1)
+    return vol, grad, blocks
+
+
+def smoothing_matrix(grid_faces: np.ndarray, top: np.ndarray, bottom: np.ndarray,
+                     n_vertices: int, weight: float) -> sp.csr_matrix:
+    """``k5 A^T A`` for U_B5, with A the uniform Laplacian of each face separately.
+
+    Parameters
+    ----------
+    grid_faces : ndarray of shape (t, 3)
+        Triangulation of Ω on grid indices.
+    top, bottom : ndarray of shape (g,)
+        Vertex indices of the grid points on each face.
+    n_vertices : int
+    weight : float
+        k5 (N/m).
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix of shape (n, n)
+        Constant Hessian (per coordinate) of U_B5 (N/m).
+    """
+    g = len(top)
+    e = np.concatenate([grid_faces[:, [0, 1]], grid_faces[:, [1, 2]], grid_faces[:, [2, 0]]])
+    adj = sp.coo_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])),
+                        shape=(g, g)).tocsr()
+    adj.data[:] = 1.0                                          # duplicates summed: reset to 1
+    w = sp.diags(1.0 / np.asarray(adj.sum(axis=1)).ravel()) @ adj
+    lap = sp.identity(g, format="csr") - w
+    both = np.concatenate([top, bottom])
+    perm = sp.coo_matrix((np.ones(2 * g), (both, np.arange(2 * g))), shape=(n_vertices, 2 * g)).tocsr()
+    a = perm @ sp.block_diag([lap, lap], format="csr") @ perm.T
+    return (weight * (a.T @ a)).tocsr()
+
+
+def energy(model: Model, x: np.ndarray) -> float:
+    """U_B (J) at positions ``x`` (n, 3), without the constant U_0,B2."""
+    e = sum(spring_terms(x, s, gradient=False)[0] for s in model.springs)
+    e -= model.pressure * volume_terms(x, model.faces, gradient=False)[0]
+    return e + 0.5 * float(np.einsum("ij,ij->", x, model.smoothing @ x))
+
+
+def energy_terms(model: Model, x: np.ndarray) -> dict:
+    """Each term of U_B (J) by name: B1, B2 (-p Vol), B3, B4, B5."""
+    out = {s.name: spring_terms(x, s, gradient=False)[0] for s in model.springs}
+    out["B2"] = -model.pressure * volume_terms(x, model.faces, gradient=False)[0]
+    out["B5"] = 0.5 * float(np.einsum("ij,ij->", x, model.smoothing @ x))
+    return out
+
+
+def energy_and_gradient(model: Model, x: np.ndarray) -> tuple:
+    """U_B (J) and its gradient (n, 3) (N)."""
+    e, g = 0.0, model.smoothing @ x
+    e += 0.5 * float(np.einsum("ij,ij->", x, g))
+    for s in model.springs:
+        es, gs, _ = spring_terms(x, s)
+        e, g = e + es, g + gs
+    vol, gv, _ = volume_terms(x, model.faces)
+    return e - model.pressure * vol, g - model.pressure * gv
+
+
+def pressure_forces(model: Model, x: np.ndarray) -> np.ndarray:
+    """Pressure force on every vertex, ``p dVol/dx`` (n, 3) (N)."""
+    return model.pressure * volume_terms(x, model.faces)[1]
+
+
+def hessian_blocks(model: Model, x: np.ndarray, *, project: bool = True) -> list:
+    """Hessian blocks of every non-constant term, in the order of :func:`block_pattern`.
+
+    Parameters
+    ----------
+    project : bool
+        Project each spring's blocks to be positive semi-definite.
+
+    Returns
+    -------
+    list of ndarray of shape (b_i, 3, 3)
+        Spring groups, then the exact pressure term ``-p d²Vol``.
+    """
+    out = [spring_terms(x, s, gradient=False, hessian=True, project=project)[2].reshape(-1, 3, 3)
+           for s in model.springs]
+    out.append(-model.pressure * volume_terms(x, model.faces, gradient=False, hessian=True)[2]
+               .reshape(-1, 3, 3))
+    return out
+
+
+def block_pattern(model: Model) -> list:
+    """Vertex (row, col) of every Hessian block of :func:`hessian_blocks`, plus the smoothing term last.
+
+    Returns
+    -------
+    list of (ndarray, ndarray)
+        Row and column vertex indices, one pair of arrays per term.
+    """
+    out = []
+    for s in model.springs:
+        kk = s.idx.shape[1]
+        out.append((np.repeat(s.idx, kk, axis=1).ravel(), np.tile(s.idx, (1, kk)).ravel()))
+    f = model.faces
+    out.append((np.stack([f[:, a] for a, _, _, _ in VOLUME_PAIRS], axis=1).ravel(),
+                np.stack([f[:, b] for _, b, _, _ in VOLUME_PAIRS], axis=1).ravel()))
+    q = model.smoothing.tocoo()
+    out.append((q.row.astype(np.int64), q.col.astype(np.int64)))
+    return out
+
+
+def smoothing_blocks(model: Model) -> np.ndarray:
+    """Constant U_B5 Hessian blocks ``Q_ij I3`` (nnz(Q), 3, 3), matching :func:`block_pattern`'s last entry."""
+    q = model.smoothing.tocoo()
+    return q.data[:, None, None] * np.eye(3)[None]

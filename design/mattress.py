@@ -1,0 +1,129 @@
+"""The flat mattress Ω = [0, W] × [0, H] and its triangulation.
+
+Ω's triangulation is the mesh that the U_A relaxation bends into Ŝ: Ŝ and
+Ω share its connectivity, so every vertex keeps its position on Ω. Lengths
+are in metres.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from airmat.errors import InputError
+
+__all__ = ["Mattress", "triangulate_mattress"]
+
+log = logging.getLogger(__name__)
+
+#: more vertices than this is a spacing slip (mm read as m), not a design
+MAX_VERTICES = 2_000_000
+
+
+@dataclass(frozen=True)
+class Mattress:
+    """A rectangular drop-stitch mattress.
+
+    Parameters
+    ----------
+    width, height : float
+        W and H of Ω (m); Ω = [0, W] × [0, H], top face seen from above.
+    thickness : float, default 0.07
+        Inflated thickness d (m); the paper's mattresses are 70 mm thick.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        For a non-finite or non-positive size.
+    """
+
+    width: float
+    height: float
+    thickness: float = 0.07
+
+    def __post_init__(self):
+        for name in ("width", "height", "thickness"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float, np.floating, np.integer))
+                    and math.isfinite(value) and value > 0):
+                raise InputError(f"mattress {name} must be a finite length > 0 m, got {value!r}",
+                                 **{name: value})
+
+    @property
+    def diagonal(self) -> float:
+        """Length (m) of Ω's diagonal."""
+        return math.hypot(self.width, self.height)
+
+    @property
+    def size_mm(self) -> str:
+        """``"830 × 740 mm"``: the size for messages."""
+        return f"{self.width * 1e3:.0f} × {self.height * 1e3:.0f} mm"
+
+
+def triangulate_mattress(mattress: Mattress, *, spacing: float = 0.02):
+    """Triangulate Ω with a regular grid of alternating diagonals.
+
+    The grid has ``ceil(W / spacing)`` × ``ceil(H / spacing)`` cells (so the
+    actual spacing is at most ``spacing``, slightly smaller when W or H is
+    not a multiple). Cell (i, j) is split along the diagonal whose direction
+    alternates like a chequerboard, so the mesh has no preferred diagonal
+    direction and every interior vertex's neighbours are centrally
+    symmetric: the umbrella (U_A3) term vanishes on the flat Ω.
+
+    Parameters
+    ----------
+    mattress : Mattress
+    spacing : float, default 0.02
+        Largest grid spacing (m).
+
+    Returns
+    -------
+    uv : ndarray of shape (n, 2)
+        Vertex positions on Ω (m), row-major: ``uv[j * nu + i]`` is grid point (i, j).
+    faces : ndarray of shape (m, 3)
+        Triangles (int64), counter-clockwise seen from above (normal +z: the top normal).
+
+    Raises
+    ------
+    airmat.errors.InputError
+        For a spacing that is not a positive length, leaves fewer than two
+        cells across Ω, or makes more than two million vertices.
+
+    Examples
+    --------
+    >>> uv, faces = triangulate_mattress(Mattress(0.83, 0.74), spacing=0.02)
+    >>> uv.shape, faces.shape
+    ((1794, 2), (3404, 3))
+    """
+    if not (math.isfinite(spacing) and spacing > 0):
+        raise InputError(f"mesh spacing must be a finite length > 0 m, got {spacing!r}", spacing=spacing)
+    nu_cells = math.ceil(mattress.width / spacing - 1e-9)
+    nv_cells = math.ceil(mattress.height / spacing - 1e-9)
+    if min(nu_cells, nv_cells) < 2:
+        raise InputError(f"mesh spacing {spacing * 1e3:.0f} mm leaves fewer than 2 cells across the "
+                         f"{mattress.size_mm} mattress", spacing=spacing)
+    if (nu_cells + 1) * (nv_cells + 1) > MAX_VERTICES:
+        raise InputError(f"mesh spacing {spacing * 1e3:.3g} mm gives more than {MAX_VERTICES} vertices "
+                         f"on the {mattress.size_mm} mattress (a unit slip?)", spacing=spacing)
+    u = np.linspace(0.0, mattress.width, nu_cells + 1)
+    v = np.linspace(0.0, mattress.height, nv_cells + 1)
+    uu, vv = np.meshgrid(u, v)
+    uv = np.column_stack([uu.ravel(), vv.ravel()])
+    nu = nu_cells + 1
+    i, j = np.meshgrid(np.arange(nu_cells), np.arange(nv_cells))
+    i, j = i.ravel(), j.ravel()
+    a = j * nu + i            # (i, j)
+    b = a + 1                 # (i+1, j)
+    c = a + nu + 1            # (i+1, j+1)
+    d = a + nu                # (i, j+1)
+    even = (i + j) % 2 == 0
+    # even cells: diagonal a-c; odd cells: diagonal b-d; both counter-clockwise
+    t1 = np.where(even[:, None], np.column_stack([a, b, c]), np.column_stack([a, b, d]))
+    t2 = np.where(even[:, None], np.column_stack([a, c, d]), np.column_stack([b, c, d]))
+    faces = np.concatenate([t1, t2]).astype(np.int64)
+    log.debug("Ω triangulated: %d vertices, %d faces, spacing %.1f mm",
+              len(uv), len(faces), 1e3 * max(u[1] - u[0], v[1] - v[0]))
+    return uv, faces

@@ -1,0 +1,219 @@
+"""The whole designer in one call: target S -> Ŝ -> field on Ω -> stripes -> string lengths -> files.
+
+:func:`design` chains the surface side (design.surface: U_A relaxation to
+Ŝ, principal curvature, constructibility, transfer to Ω) and the pattern
+side (design.stripes, design.string_lengths), timing each stage;
+:func:`write_design` writes every workshop file of a result into a folder.
+SI units inside (m, 1/m); files in mm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from airmat.units import M_TO_MM
+from calib.model import kappa_max
+from design.calibration_source import CalibrationSource, default_calibration
+from design.export import (design_document, write_cutting_list, write_design_json, write_dxf, write_preview,
+                           write_svg)
+from design.string_lengths import string_pattern
+from design.stripes import StripeParams, check_stripe_params, trace_stripes
+from design.surface import approximate_surface, mattress_field
+from design.surface_io import write_approx_surface
+
+__all__ = ["DesignParams", "DesignResult", "design", "write_design", "OUTPUT_FILES"]
+
+log = logging.getLogger(__name__)
+
+OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "pattern.svg", "pattern.dxf",
+                "cutting_list.csv", "preview.png")
+
+
+def _mm(x) -> float:
+    return round(float(x) * M_TO_MM, 3)
+
+
+def _rounded(d: dict, digits: int) -> dict:
+    return {k: round(float(v), digits) for k, v in d.items()}
+
+
+@dataclass(frozen=True)
+class DesignParams:
+    """Every knob of the designer (SI: m, 1/m).
+
+    Attributes
+    ----------
+    L : float or None
+        Geodesic spacing of string ends; None: the calibration's L (paper: 0.30 m).
+    mu1, mu2 : float
+        Dash period along a line and spacing of lines (m), paper §3.3.1.
+    margin : float
+        Dashes stay this far inside the mattress edge (m).
+    step : float or None
+        Line integration step (m); default min(μ₂ / 10, 10 mm).
+    spacing : float
+        Mesh spacing of Ω for the relaxation (m).
+    k_a1, k_a2, k_a3 : float
+        U_A weights (edge lengths, closest point, smoothing), design.relax.
+    kappa_min : float
+        |κ| (1/m) below which a family needs no string.
+    weight_min : float
+        Direction weight below which lines stop (umbilics).
+    n_kappa_points : int
+        Field samples per dash for its representative κ (paper: N).
+    """
+
+    L: float | None = None
+    mu1: float = 0.40
+    mu2: float = 0.10
+    margin: float = 0.03
+    step: float | None = None
+    spacing: float = 0.02
+    k_a1: float = 1.0
+    k_a2: float = 0.05
+    k_a3: float = 0.02
+    kappa_min: float = 0.25
+    weight_min: float = 0.02
+    n_kappa_points: int = 10
+
+    def stripe_params(self, L: float) -> StripeParams:
+        """The stripe tracer's parameters, with L resolved."""
+        return StripeParams(L=L, mu1=self.mu1, mu2=self.mu2, margin=self.margin, step=self.step,
+                            kappa_min=self.kappa_min, weight_min=self.weight_min)
+
+    def file_dict(self, L: float) -> dict:
+        """The parameters as written to design.json (mm, 1/m)."""
+        sp, mm = self.stripe_params(L), _mm
+        return {"L_mm": mm(L), "mu1_mm": mm(self.mu1), "mu2_mm": mm(self.mu2), "margin_mm": mm(self.margin),
+                "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), "k_a1": self.k_a1,
+                "k_a2": self.k_a2, "k_a3": self.k_a3, "kappa_min_per_m": self.kappa_min,
+                "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points)}
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """Everything a design produced.
+
+    Attributes
+    ----------
+    approx : design.surface.ApproxSurface
+        Ŝ with its relaxation result, curvature and constructibility report.
+    mfield : design.field.MattressField
+        The principal-curvature field on Ω.
+    stripes : design.stripes.Stripes
+        Lines and dashes of both families.
+    pattern : design.pattern.Pattern
+        The strings with lengths and tolerances.
+    calibration : CalibrationSource
+    params : DesignParams
+        With ``L`` resolved.
+    seed : int
+    timings : dict
+        Seconds per stage (the surface side's stages, ``transfer``, ``stripes``, ``lengths``).
+    """
+
+    approx: object = field(repr=False)
+    mfield: object = field(repr=False)
+    stripes: object = field(repr=False)
+    pattern: object
+    calibration: CalibrationSource = field(repr=False)
+    params: DesignParams
+    seed: int
+    timings: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def name(self) -> str:
+        """The target's name."""
+        return self.approx.target.name
+
+
+def design(target, mattress, *, calibration: CalibrationSource | None = None,
+           params: DesignParams = DesignParams(), seed: int = 0, progress: bool = True) -> DesignResult:
+    """Design the string pattern that bends ``mattress`` into an approximation of ``target``.
+
+    Parameters
+    ----------
+    target : design.target.Target
+        The guide surface S (m).
+    mattress : design.mattress.Mattress
+        W, H, thickness (m).
+    calibration : CalibrationSource, optional
+        Posterior of Equation 3's Δ and d; default the paper's values, labelled uncalibrated
+        (d = the mattress thickness).
+    params : DesignParams
+    seed : int
+        Seed of every random step (the default calibration's samples).
+    progress : bool
+        Progress bar on the relaxation when on a terminal.
+
+    Returns
+    -------
+    DesignResult
+
+    Raises
+    ------
+    airmat.errors.InputError
+        Impossible parameters (checked before any work), a target that does not fit the mattress.
+    airmat.errors.ConvergenceError
+        When the relaxation diverges.
+    """
+    if calibration is None:
+        calibration = default_calibration(seed=seed, d=mattress.thickness)
+    L = float(calibration.L if params.L is None else params.L)
+    params = dataclasses.replace(params, L=L)
+    sp = params.stripe_params(L)
+    check_stripe_params(sp, mattress.width, mattress.height)
+    reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))
+    approx = approximate_surface(target, mattress, spacing=params.spacing, k_a1=params.k_a1, k_a2=params.k_a2,
+                                 k_a3=params.k_a3, kappa_max=reach, progress=progress)
+    timings = dict(approx.timings)
+    t = time.perf_counter()
+    mfield = mattress_field(approx)
+    timings["transfer"] = time.perf_counter() - t
+    t = time.perf_counter()
+    stripes = trace_stripes(mfield, sp)
+    timings["stripes"] = time.perf_counter() - t
+    t = time.perf_counter()
+    pattern = string_pattern(mfield, stripes.dashes, calibration, L=L, n_points=params.n_kappa_points,
+                             kappa_min=params.kappa_min, notes=stripes.notes)
+    timings["lengths"] = time.perf_counter() - t
+    return DesignResult(approx=approx, mfield=mfield, stripes=stripes, pattern=pattern, calibration=calibration,
+                        params=params, seed=int(seed), timings=timings)
+
+
+def report_dict(report) -> dict:
+    """The constructibility report in file units (Table 1: σ, |κ1|, |κ2| in 1/m)."""
+    return {"sigma": _rounded(report.sigma, 5), "kappa1_per_m": _rounded(report.kappa1, 4),
+            "kappa2_per_m": _rounded(report.kappa2, 4), "constructible": bool(report.constructible),
+            "reasons": [str(r) for r in report.reasons],
+            "sigma_band": [float(b) for b in report.sigma_band],
+            "kappa_max_per_m": round(float(report.kappa_max), 4)}
+
+
+def write_design(result: DesignResult, folder) -> dict:
+    """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
+
+    Returns
+    -------
+    dict
+        The design document (content of design.json). ``result.timings["export"]`` is not
+        updated (the result is frozen); the caller times this call.
+    """
+    folder = Path(folder)
+    a, m = result.approx, result.approx.mattress
+    doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
+                          report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
+                          seed=result.seed, name=result.name)
+    write_design_json(folder / "design.json", doc)
+    write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
+    write_svg(folder / "pattern.svg", doc)
+    write_dxf(folder / "pattern.dxf", doc)
+    write_cutting_list(folder / "cutting_list.csv", doc)
+    write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
+    return doc

@@ -1,0 +1,377 @@
+"""U_A relaxation of Ω toward the target S: the near-developable surface Ŝ (paper §3.2, Eq. 4).
+
+The mesh M (Ω's triangulation) starts flat on S and minimises
+
+    U_A = Σ_edges ½ k_A1 (ε − ε0)²  +  Σ_vertices ½ k_A2 ‖x − x_closest‖²  +  Σ_vertices ½ k_A3 ‖x − x_avg‖²
+
+(A1: edges keep their Ω length ε0; A2: vertices move to their closest point
+on S; A3: vertices move toward their neighbours' average). The solver is a
+local-global (projective dynamics) iteration: the local step projects each
+edge onto its rest length and each vertex onto S (one BVH query for all
+vertices), the global step solves one linear system whose matrix
+``k_A1 AᵀA + k_A2 I + k_A3 LᵀL`` never changes, so it is factorised once.
+Every iteration decreases U_A. Lengths in metres.
+
+Resolution independence: the A1 term per unit area does not depend on the
+mesh spacing h, the per-vertex A2 and A3 terms grow as 1/h². The weights
+k_A2 and k_A3 are therefore stated for the reference spacing of 20 mm and
+multiplied by (h / 20 mm)² (h: mean rest edge length), so Ŝ stays the same
+when the mesh is refined.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import factorized
+
+from airmat.errors import ConvergenceError
+from airmat.progress import progress as progress_bar
+from airmat.progress import progress_enabled
+from design.closest_point import MeshProjector
+from design.placement import apply_placement, auto_placement, placement_matrix
+
+__all__ = ["RelaxResult", "relax_to_target", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
+
+log = logging.getLogger(__name__)
+
+#: spacing (m) at which k_A2 and k_A3 apply as given
+REFERENCE_SPACING = 0.02
+#: iterations over which a stalled energy is detected
+STALL_WINDOW = 50
+#: force tolerance (k_A1·h) of the coarse grids, whose Ŝ is only a start
+COARSE_TOL = 1e-3
+
+
+@dataclass(frozen=True)
+class RelaxResult:
+    """Outcome of :func:`relax_to_target`.
+
+    Attributes
+    ----------
+    xyz : ndarray of shape (n, 3)
+        Vertex positions of Ŝ (m).
+    converged : bool
+        Whether the largest unbalanced force on a vertex fell below ``tol`` × k_A1 × h
+        (h the mean rest edge length): the pull of an edge strained by ``tol``.
+    n_iter : int
+        Iterations done.
+    residual : float
+        That largest force, in units of k_A1 × h (a strain).
+    message : str
+    energy : dict
+        Final ``U_A1``, ``U_A2``, ``U_A3`` and ``U_A`` (with the scaled weights; J for weights in N/m).
+    distance : dict
+        ``mean`` and ``max`` distance (m) from Ŝ's vertices to S.
+    placement : ndarray of shape (4, 4)
+        The start placement of Ω used (see design.placement).
+    """
+
+    xyz: np.ndarray
+    converged: bool
+    n_iter: int
+    residual: float
+    message: str
+    energy: dict
+    distance: dict
+    placement: np.ndarray
+    history: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+
+
+def mesh_edges(faces: np.ndarray) -> np.ndarray:
+    """Unique undirected edges (e, 2) of a triangle mesh, each row sorted."""
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    return np.unique(np.sort(e, axis=1), axis=0)
+
+
+def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan") -> sp.csr_matrix:
+    """The A3 operator L with (L x)_i = x_i − mean of i's neighbours, shape (r, n).
+
+    Interior vertices average all their neighbours, boundary vertices their two
+    boundary neighbours (averaging inner neighbours would pull the rim inward).
+    Only vertices where the term vanishes on the flat Ω get a row (this drops the
+    corners): the flat mattress is a rest state of U_A3.
+    """
+    n = len(uv)
+    e = mesh_edges(faces)
+    tri_e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(tri_e, axis=0, return_counts=True)  # same order as mesh_edges
+    on_rim = counts == 1
+    rim_vertex = np.zeros(n, bool)
+    rim_vertex[e[on_rim].ravel()] = True
+    # an interior vertex uses every edge; a rim vertex only rim edges
+    ij = np.concatenate([e, e[:, ::-1]])
+    rim_edge = np.concatenate([on_rim, on_rim])
+    keep = ~rim_vertex[ij[:, 0]] | rim_edge
+    ij = ij[keep]
+    w = np.ones(len(ij))
+    if weights == "cotan":
+        import igl
+        cot = igl.cotmatrix(np.column_stack([uv, np.zeros(n)]), faces).tocsr()
+        wc = np.asarray(cot[ij[:, 0], ij[:, 1]]).ravel()
+        w = np.where(rim_edge[keep], 1.0, np.where(np.abs(wc) < 1e-12, 0.0, wc))
+    adj = sp.csr_matrix((w, (ij[:, 0], ij[:, 1])), shape=(n, n))
+    adj.eliminate_zeros()
+    deg = np.asarray(adj.sum(axis=1)).ravel()
+    lap = sp.identity(n, format="csr") - sp.diags(1.0 / np.maximum(deg, 1)) @ adj
+    rest = np.linalg.norm(lap @ uv, axis=1)
+    h = np.linalg.norm(uv[e[:, 0]] - uv[e[:, 1]], axis=1).mean()
+    rows = np.flatnonzero((rest < 1e-6 * h) & (deg > 0))
+    return lap[rows]
+
+
+class _Problem:
+    """U_A's fixed data: the local step (projections) and the prefactorised global step."""
+
+    def __init__(self, uv, faces, projector, k1, k2, k3):
+        n = len(uv)
+        self.edges = mesh_edges(faces)
+        self.rest = np.linalg.norm(uv[self.edges[:, 0]] - uv[self.edges[:, 1]], axis=1)
+        self.h = float(self.rest.mean())
+        scale = (self.h / REFERENCE_SPACING) ** 2   # per-vertex weights are given at 20 mm spacing
+        k2, k3 = k2 * scale, k3 * scale
+        self.lap = umbrella_operator(uv, faces)
+        m = len(self.edges)
+        rows = np.r_[np.arange(m), np.arange(m)]
+        self.inc = sp.csr_matrix((np.r_[np.ones(m), -np.ones(m)],
+                                  (rows, np.r_[self.edges[:, 0], self.edges[:, 1]])), shape=(m, n))
+        self.gmat = (k1 * (self.inc.T @ self.inc) + k2 * sp.identity(n) + k3 * (self.lap.T @ self.lap)).tocsc()
+        self.solve = factorized(self.gmat)
+        self.k = (k1, k2, k3)
+        self.projector = projector
+
+    def project(self, x):
+        """Closest points on S, shape (n, 3)."""
+        return self.projector.closest(x).points
+
+    def energy(self, x, cp) -> dict:
+        k1, k2, k3 = self.k
+        length = np.linalg.norm(self.inc @ x, axis=1)
+        u1 = 0.5 * k1 * np.sum((length - self.rest) ** 2)
+        u2 = 0.5 * k2 * np.sum((x - cp) ** 2)
+        u3 = 0.5 * k3 * np.sum((self.lap @ x) ** 2)
+        return {"U_A1": float(u1), "U_A2": float(u2), "U_A3": float(u3), "U_A": float(u1 + u2 + u3)}
+
+    def global_step(self, x, cp):
+        """The projective-dynamics step G(x) (edges projected to rest length, one linear solve)
+        and the force -∇U_A(x), both (n, 3)."""
+        k1, k2, _ = self.k
+        d = self.inc @ x
+        length = np.linalg.norm(d, axis=1)
+        d *= (self.rest / np.maximum(length, 1e-12 * self.h))[:, None]
+        rhs = k1 * (self.inc.T @ d) + k2 * cp
+        g = np.column_stack([self.solve(np.ascontiguousarray(rhs[:, c])) for c in range(3)])
+        return g, rhs - self.gmat @ x
+
+
+class _Anderson:
+    """Anderson acceleration (type II, window m) of the fixed-point map x -> G(x) (Peng et al. 2018)."""
+
+    def __init__(self, m: int):
+        self.m = m
+        self.reset()
+
+    def reset(self):
+        self.df, self.dg, self.prev = [], [], None
+
+    def propose(self, x, g):
+        """Next iterate from the current x and g = G(x), both (n, 3)."""
+        f = (g - x).ravel()
+        if self.prev is not None and self.m > 0:
+            self.df.append(f - self.prev[0])
+            self.dg.append(g.ravel() - self.prev[1])
+            del self.df[:-self.m], self.dg[:-self.m]
+        self.prev = (f, g.ravel())
+        if not self.df:
+            return g
+        dfm = np.column_stack(self.df)
+        theta = np.linalg.lstsq(dfm, f, rcond=None)[0]
+        return (g.ravel() - np.column_stack(self.dg) @ theta).reshape(g.shape)
+
+
+def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a2: float = 0.2,
+                    k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7, max_iter: int = 1000,
+                    anderson: int = 5, levels: int | None = None,
+                    progress: bool = True, strict: bool = False,
+                    projector: MeshProjector | None = None) -> RelaxResult:
+    """Relax Ω's mesh onto the target S by minimising U_A (Equation 4).
+
+    Parameters
+    ----------
+    uv : ndarray of shape (n, 2)
+        Vertices of Ω's triangulation (m); their distances are the rest lengths.
+    faces : ndarray of shape (m, 3)
+        Triangles, counter-clockwise on Ω (so Ŝ's face normals are the top normal).
+    target : design.target.Target
+        The guide surface S (m).
+    placement : (4, 4) ndarray or (offset, rotation), optional
+        Where flat Ω starts (design.placement.placement_matrix); default
+        :func:`design.placement.auto_placement`.
+    k_a1 : float, default 1.0
+        Weight of A1, edges keeping their length (per edge).
+    k_a2 : float, default 0.2
+        Weight of A2, vertices pulled to their closest point on S (per vertex,
+        at 20 mm spacing; scaled by (h / 20 mm)²). Larger: Ŝ follows S closer and
+        stretches more (σ further from 1).
+    k_a3 : float, default 0.02
+        Weight of A3, smoothing toward the neighbours' average (per vertex, at
+        20 mm spacing; scaled like k_a2). It suppresses wrinkles but flattens Ŝ a
+        little near the rim (bias ∝ k_a3 / k_a2; see the tests).
+    tol : float, default 1e-4
+        Converged when the largest unbalanced force on a vertex, |∂U_A/∂x_i|, is below
+        ``tol`` × k_a1 × h (h the mean edge length): the pull of one edge strained by
+        ``tol``. It stays a little above 0 (the closest-point map is only piecewise
+        smooth on a triangle mesh), so do not ask for much below 1e-5.
+    stall : float, default 1e-7
+        Also converged when U_A decreased by less than ``stall`` (relative) over the
+        last 50 iterations: the force is then at the floor the target's facets set
+        (the message says so).
+    max_iter : int, default 1000
+    anderson : int, default 5
+        Window of the Anderson acceleration (0: plain local-global iterations).
+        An accelerated step that raises U_A is replaced by the plain step.
+    levels : int, optional
+        Coarser grids (spacing 2h, 4h, ...) solved first, each starting the next
+        (default: as many as leave about 10 cells across Ω, at most 3; 0 starts the
+        fine mesh flat). Wrapping a fine flat mesh around a strongly curved S in
+        one go can crumple it.
+    progress : bool, default True
+        Show a progress bar (only when stderr is a terminal).
+    strict : bool, default False
+        Raise ConvergenceError instead of returning unconverged.
+    projector : design.closest_point.MeshProjector, optional
+        A BVH over the target to reuse.
+
+    Returns
+    -------
+    RelaxResult
+
+    Raises
+    ------
+    airmat.errors.ConvergenceError
+        When the iteration diverges (non-finite positions), or with ``strict``
+        when it does not converge in ``max_iter`` iterations.
+    """
+    uv = np.asarray(uv, dtype=float)
+    faces = np.asarray(faces, dtype=np.int64)
+    lo = uv.min(axis=0)
+    width, height = uv.max(axis=0) - lo
+    projector = projector or MeshProjector(target.vertices, target.faces)
+    mat = (auto_placement(target, width, height, projector=projector) if placement is None
+           else placement_matrix(placement, width, height))
+    prob = _Problem(uv, faces, projector, k_a1, k_a2, k_a3)
+    spacing = float(np.median(prob.rest))
+    levels = _coarse_levels(spacing, width, height) if levels is None else int(levels)
+    t0 = time.perf_counter()
+    x0 = apply_placement(mat, uv - lo)
+    if levels:
+        x0 = _coarse_start(uv - lo, mat, projector, spacing=spacing, levels=levels, k=(k_a1, k_a2, k_a3),
+                           stall=stall, max_iter=max_iter, anderson=anderson)
+    bar = progress_bar(total=max_iter, desc="relax Ŝ", unit="it") if progress and progress_enabled() else None
+    try:
+        x, it, status, residual, history = _iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
+                                                    window=anderson, bar=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    converged = status != "max_iter"
+    closest = projector.closest(x)
+    energy = prob.energy(x, closest.points)
+    msg = {"force": f"converged in {it} iterations (largest force {residual:.2g} k_A1·h)",
+           "stall": f"converged in {it} iterations: U_A stationary (changed < {stall:g} in "
+                    f"{STALL_WINDOW} iterations) with the largest force {residual:.2g} k_A1·h above "
+                    f"tol {tol:g} (the target's facets limit it: a finer target mesh helps)",
+           "max_iter": f"not converged after {it} iterations (largest force {residual:.2g} k_A1·h, "
+                       f"tol {tol:g})"}[status]
+    log.info("U_A relaxation %s, %.2f s; distance to S mean %.2f mm, max %.2f mm", msg,
+             time.perf_counter() - t0, 1e3 * closest.distance.mean(), 1e3 * closest.distance.max())
+    if not converged:
+        if strict:
+            raise ConvergenceError(f"U_A relaxation {msg}", n_iter=it, residual=residual)
+        log.warning("U_A relaxation %s", msg)
+    return RelaxResult(xyz=x, converged=converged, n_iter=it, residual=residual, message=msg,
+                       energy=energy, placement=mat,
+                       distance={"mean": float(closest.distance.mean()), "max": float(closest.distance.max())},
+                       history=np.asarray(history))
+
+
+def _coarse_levels(h, width, height):
+    """How many coarser grids (spacing 2h, 4h, ...) to solve first: down to ~10 cells across."""
+    n = 0
+    while n < 3 and h * 2 ** (n + 1) <= min(width, height) / 10:
+        n += 1
+    return n
+
+
+def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, anderson):
+    """Start positions (n, 3) for the mesh ``uv`` from Ŝ solved on coarser grids of Ω.
+
+    Wrapping a fine flat mesh around a strongly curved S in one go can crumple it;
+    a coarse grid wraps cleanly, and each finer grid starts from the coarser Ŝ
+    (interpolated linearly over Ω), so it only needs to settle.
+    """
+    from scipy.interpolate import LinearNDInterpolator
+
+    from design.mattress import Mattress, triangulate_mattress
+
+    width, height = uv.max(axis=0)
+    mattress = Mattress(float(width), float(height))
+    prev_uv, prev_x = None, None
+    for level in range(levels, 0, -1):
+        cuv, cfaces = triangulate_mattress(mattress, spacing=spacing * 2**level)
+        x = (apply_placement(mat, cuv) if prev_uv is None
+             else LinearNDInterpolator(prev_uv, prev_x)(cuv))
+        prob = _Problem(cuv, cfaces, projector, *k)
+        x, it, status, residual, _ = _iterate(prob, x, tol=COARSE_TOL, stall=stall, max_iter=max_iter,
+                                              window=anderson, bar=None)
+        log.debug("coarse level %d (%.0f mm): %s after %d iterations, force %.2g", level,
+                  1e3 * prob.h, status, it, residual)
+        prev_uv, prev_x = cuv, x
+    return LinearNDInterpolator(prev_uv, prev_x)(uv)
+
+
+def _iterate(prob: _Problem, x, *, tol, stall, max_iter, window, bar):
+    """Anderson-accelerated local-global iterations from x.
+
+    Returns (x, n_iter, status, residual, history); status is "force", "stall" or "max_iter".
+    """
+    acc = _Anderson(window)
+    cp = prob.project(x)
+    e = e0 = prob.energy(x, cp)["U_A"]
+    g, force = prob.global_step(x, cp)
+    history, energies, status, residual, it = [], [e], "max_iter", np.inf, 0
+    for it in range(1, max_iter + 1):
+        residual = float(np.linalg.norm(force, axis=1).max() / (prob.k[0] * prob.h))
+        history.append(residual)
+        if residual < tol:
+            status = "force"
+            break
+        if len(energies) > STALL_WINDOW and energies[-STALL_WINDOW - 1] - e <= stall * e:
+            status = "stall"
+            break
+        x_new = acc.propose(x, g)
+        if not np.isfinite(g).all():
+            raise ConvergenceError(f"U_A relaxation diverged at iteration {it} (non-finite positions)",
+                                   n_iter=it)
+        cp_new = prob.project(x_new)
+        e_new = prob.energy(x_new, cp_new)["U_A"]
+        if e_new > e and x_new is not g:  # the accelerated step went uphill: take the plain one
+            acc.reset()
+            acc.propose(x, g)
+            x_new, cp_new = g, prob.project(g)
+            e_new = prob.energy(x_new, cp_new)["U_A"]
+        if not (np.isfinite(x_new).all() and np.isfinite(e_new)) or e_new > 1e3 * e0 + 1e-30:
+            raise ConvergenceError(f"U_A relaxation diverged at iteration {it} "
+                                   f"(energy {e_new:.3g}, started at {e0:.3g})", n_iter=it)
+        x, cp, e = x_new, cp_new, e_new
+        energies.append(e)
+        g, force = prob.global_step(x, cp)
+        if bar is not None:
+            bar.update(1)
+            if it % 10 == 0:
+                bar.set_postfix_str(f"force {residual:.1e} k_A1·h")
+    return x, it, status, residual, history

@@ -1,0 +1,154 @@
+"""The surface side of the designer in one call: target S -> Ŝ -> curvature field on Ω.
+
+:func:`approximate_surface` triangulates Ω, relaxes it onto S (U_A,
+design.relax), estimates Ŝ's principal curvatures (design.curvature) and
+reports constructibility (design.constructibility);
+:func:`mattress_field` carries the curvature field onto Ω
+(design.transfer) for the pattern side. SI units: m, 1/m.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from design.closest_point import MeshProjector
+from design.constructibility import ConstructibilityReport, constructibility
+from design.curvature import PrincipalCurvature, principal_curvature
+from design.field import MattressField
+from design.mattress import Mattress, triangulate_mattress
+from design.relax import RelaxResult, relax_to_target
+from design.target import Target, check_scale
+from design.transfer import transfer_to_mattress
+
+__all__ = ["ApproxSurface", "approximate_surface", "mattress_field"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ApproxSurface:
+    """Ŝ: the near-developable surface the mattress can make, with its curvature and report.
+
+    Attributes
+    ----------
+    target : design.target.Target
+    mattress : design.mattress.Mattress
+    xyz : ndarray of shape (n, 3)
+        Vertices of Ŝ (m).
+    uv : ndarray of shape (n, 2)
+        The same vertices on Ω (m).
+    faces : ndarray of shape (m, 3)
+        Shared triangles, counter-clockwise on Ω.
+    relax : design.relax.RelaxResult
+        The U_A relaxation (converged, n_iter, residual, message, energy, placement).
+    curvature : design.curvature.PrincipalCurvature
+        Per-vertex principal curvatures of Ŝ, signed against the top normal.
+    report : design.constructibility.ConstructibilityReport
+        Table-1 figures and verdict.
+    timings : dict
+        Seconds per stage: ``triangulate``, ``relax``, ``curvature``, ``report``.
+    """
+
+    target: Target
+    mattress: Mattress
+    xyz: np.ndarray
+    uv: np.ndarray
+    faces: np.ndarray
+    relax: RelaxResult
+    curvature: PrincipalCurvature
+    report: ConstructibilityReport
+    timings: dict = field(default_factory=dict, compare=False)
+
+
+def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 0.02, placement=None,
+                        k_a1: float = 1.0, k_a2: float = 0.2, k_a3: float = 0.02, tol: float = 1e-4,
+                        max_iter: int = 1000, stall: float = 1e-7, sigma_band=(0.9, 1.1), kappa_max: float | None = None,
+                        curvature_radius: float = 2.5, progress: bool = True,
+                        strict: bool = False) -> ApproxSurface:
+    """Find Ŝ for ``target`` on ``mattress`` and its principal curvatures (paper §3.2).
+
+    Parameters
+    ----------
+    target : design.target.Target
+        The guide surface S (m).
+    mattress : design.mattress.Mattress
+    spacing : float, default 0.02
+        Mesh spacing on Ω (m).
+    placement : (4, 4) ndarray or (offset, rotation), optional
+        Start placement of Ω (design.placement); default: centred on S's principal frame.
+    k_a1, k_a2, k_a3 : float, default 1.0, 0.2, 0.02
+        U_A weights (design.relax.relax_to_target; k_a2, k_a3 at 20 mm spacing).
+    tol, max_iter : float, int
+        Relaxation stopping rule.
+    sigma_band : (float, float), default (0.9, 1.02)
+        Tolerated edge length ratio Ŝ/Ω.
+    kappa_max : float, optional
+        Reachable curvature (1/m); default the paper's calibration (15.66 1/m).
+    curvature_radius : float, default 2.5
+        Neighbourhood of the curvature fit, in mean edge lengths.
+    progress : bool, default True
+        Progress bar on the relaxation (only on a terminal).
+    strict : bool, default False
+        Raise ConvergenceError when the relaxation does not converge.
+
+    Returns
+    -------
+    ApproxSurface
+
+    Raises
+    ------
+    airmat.errors.InputError
+        When the target does not fit the mattress (a units slip) or a parameter is invalid.
+    airmat.errors.ConvergenceError
+        When the relaxation diverges (or, with ``strict``, does not converge).
+    """
+    check_scale(target, mattress)
+    timings = {}
+    t = time.perf_counter()
+    uv, faces = triangulate_mattress(mattress, spacing=spacing)
+    projector = MeshProjector(target.vertices, target.faces)
+    timings["triangulate"] = time.perf_counter() - t
+    t = time.perf_counter()
+    relax = relax_to_target(uv, faces, target, placement=placement, k_a1=k_a1, k_a2=k_a2, k_a3=k_a3,
+                            tol=tol, stall=stall, max_iter=max_iter, progress=progress, strict=strict,
+                            projector=projector)
+    timings["relax"] = time.perf_counter() - t
+    t = time.perf_counter()
+    curv = principal_curvature(relax.xyz, faces, radius=curvature_radius)
+    timings["curvature"] = time.perf_counter() - t
+    t = time.perf_counter()
+    report = constructibility(relax.xyz, uv, faces, curv.kappa, sigma_band=sigma_band, kappa_max=kappa_max)
+    timings["report"] = time.perf_counter() - t
+    if not report.constructible:
+        log.warning("Ŝ of %s is not constructible: %s", target.name, "; ".join(report.reasons))
+    return ApproxSurface(target=target, mattress=mattress, xyz=relax.xyz, uv=uv, faces=faces, relax=relax,
+                         curvature=curv, report=report, timings=timings)
+
+
+def mattress_field(approx: ApproxSurface, *, smoothing_length: float = 0.03,
+                   anisotropy_scale: float = 0.5) -> MattressField:
+    """The principal-curvature field of Ŝ carried onto Ω (design.transfer.transfer_to_mattress).
+
+    Parameters
+    ----------
+    approx : ApproxSurface
+    smoothing_length : float, default 0.03
+        Length (m) over which unreliable (umbilic) directions are filled in.
+    anisotropy_scale : float, default 0.5
+        a0 (1/m) of the direction reliability weight.
+
+    Returns
+    -------
+    design.field.MattressField
+        With ``meta`` holding the target name, the Table-1 report and the relaxation message.
+    """
+    m = approx.mattress
+    meta = {"target": approx.target.name, "report": approx.report, "relax": approx.relax.message}
+    return transfer_to_mattress(approx.xyz, approx.uv, approx.faces, approx.curvature.kappa,
+                                approx.curvature.directions, width=m.width, height=m.height,
+                                smoothing_length=smoothing_length, anisotropy_scale=anisotropy_scale,
+                                meta=meta)

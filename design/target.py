@@ -1,0 +1,218 @@
+"""Target surfaces S: loading (OBJ, PLY, STL, OFF) and validation.
+
+A target is a triangle mesh in metres. Files are in millimetres unless told
+otherwise. Every problem a user can cause raises
+:class:`airmat.errors.InputError` naming the file: missing or unreadable
+file, empty mesh, non-triangle faces, non-manifold edges, NaN/inf
+coordinates, and a size that does not fit the mattress (a units slip).
+
+Non-triangle faces are refused, not triangulated: a quad can be split
+along either diagonal and the two choices are different surfaces, so the
+designer asks for the triangulation the user means (any modeller exports
+one: e.g. Blender's "Triangulate Faces").
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from airmat.errors import InputError
+from airmat.units import SCAN_UNITS
+
+__all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
+
+log = logging.getLogger(__name__)
+
+FORMATS = ("obj", "ply", "stl", "off")
+#: metres per file unit
+UNITS = {**SCAN_UNITS, "cm": 0.01}
+#: target bounding diagonal / mattress diagonal outside this range is a units slip
+SCALE_RANGE = (0.2, 50.0)
+
+
+@dataclass(frozen=True, eq=False)
+class Target:
+    """A target surface S: a triangle mesh in metres.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (n, 3)
+        Vertex positions (m), finite.
+    faces : ndarray of shape (m, 3)
+        Triangles (vertex indices). Their winding gives the target's normals;
+        the mattress's top face is placed on the side these normals point to.
+    name : str
+        For messages and outputs.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        For an empty mesh, wrong shapes, indices out of range, NaN/inf
+        vertices or non-manifold edges (the count is in ``err.data``).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    name: str = "target"
+
+    def __post_init__(self):
+        v = np.asarray(self.vertices, dtype=float)
+        f = np.asarray(self.faces)
+        _check_mesh(v, f)
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f.astype(np.int64))
+
+    @property
+    def bbox_diagonal(self) -> float:
+        """Length (m) of the axis-aligned bounding box diagonal."""
+        return float(np.linalg.norm(np.ptp(self.vertices[np.unique(self.faces)], axis=0)))
+
+    @property
+    def face_areas(self) -> np.ndarray:
+        """Areas (m²) of the faces, shape (m,)."""
+        return 0.5 * np.linalg.norm(self.face_cross, axis=1)
+
+    @property
+    def face_cross(self) -> np.ndarray:
+        """Cross products of the faces' edge vectors (m²), shape (m, 3): twice area × normal."""
+        p = self.vertices[self.faces]
+        return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+
+
+def _check_mesh(v: np.ndarray, f: np.ndarray) -> None:
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise InputError(f"target vertices have shape {v.shape}, expected (n, 3)")
+    if f.size == 0 or len(v) == 0:
+        raise InputError(f"empty mesh: {len(v)} vertices and {len(f) if f.ndim else 0} faces "
+                         "(a point cloud or a file without a surface?)")
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise InputError(f"target faces have shape {f.shape}, expected (m, 3) triangles")
+    if not np.issubdtype(f.dtype, np.integer) or f.min() < 0 or f.max() >= len(v):
+        raise InputError(f"face indices must be integers in [0, {len(v) - 1}]")
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad.any():
+        raise InputError(f"{int(bad.sum())} of {len(v)} vertices have NaN or infinite coordinates "
+                         f"(first: vertex {int(np.flatnonzero(bad)[0])})", n_bad=int(bad.sum()))
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    n_nm = int((counts > 2).sum())
+    if n_nm:
+        raise InputError(f"mesh has {n_nm} non-manifold edges (shared by more than two faces); "
+                         "the target must be a single-sheeted surface", n_nonmanifold=n_nm)
+
+
+def _declared_polygons(path: Path, mesh) -> int | None:
+    """Number of faces the file declares (polygons of any size), or None when unknown."""
+    ext = path.suffix.lower().lstrip(".")
+    if ext == "ply":
+        raw = mesh.metadata.get("_ply_raw", {}).get("face")
+        return None if raw is None else int(raw["length"])
+    if ext == "obj":
+        return len(re.findall(rb"(?m)^[ \t]*f[ \t]", path.read_bytes()))
+    if ext == "off":
+        text = re.sub(rb"#[^\n]*", b"", path.read_bytes())
+        tokens = text.split(maxsplit=4)
+        return int(tokens[2]) if len(tokens) > 3 and tokens[0].endswith(b"OFF") else None
+    return None  # STL holds triangles only
+
+
+def load_target(path, *, units: str = "mm", name: str | None = None, mattress=None) -> Target:
+    """Read a target surface from an OBJ, PLY, STL or OFF file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The mesh file; the format is taken from the extension.
+    units : {"mm", "m", "cm", "in"}, default "mm"
+        Units of the file's coordinates.
+    name : str, optional
+        Name of the target (default: the file's stem).
+    mattress : design.mattress.Mattress, optional
+        When given, also check that the target's size fits the mattress
+        (:func:`check_scale`).
+
+    Returns
+    -------
+    Target
+        Vertices in metres; coincident vertices (STL) are merged.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        With ``path`` set: missing or unreadable file, unknown format or
+        units, empty mesh, non-triangle faces, NaN/inf coordinates,
+        non-manifold edges, a size that does not fit the mattress.
+    """
+    import trimesh
+
+    path = Path(path)
+    if units not in UNITS:
+        raise InputError(f"unknown units {units!r}: use one of {', '.join(UNITS)}", path=path)
+    ext = path.suffix.lower().lstrip(".")
+    if ext not in FORMATS:
+        raise InputError(f"unsupported target format {path.suffix!r}: use one of "
+                         f"{', '.join('.' + f for f in FORMATS)}", path=path)
+    if not path.is_file():
+        raise InputError("target file not found", path=path)
+    try:
+        mesh = trimesh.load(path, file_type=ext, process=False, force="mesh")
+        declared = _declared_polygons(path, mesh)
+    except (ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the target as {ext.upper()}: {exc}", path=path) from exc
+    vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float)
+    faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3), int)))
+    if declared is not None and 0 < declared < len(faces):
+        raise InputError(f"the mesh has non-triangle faces ({declared} polygons make {len(faces)} "
+                         "triangles); triangulate it first (e.g. Blender: Triangulate Faces)",
+                         path=path, n_polygons=declared)
+    try:
+        _check_mesh(vertices, faces)  # NaNs before merging, which would hide them
+        mesh = trimesh.Trimesh(vertices, faces, process=False)
+        mesh.merge_vertices()
+        target = Target(np.asarray(mesh.vertices) * UNITS[units], np.asarray(mesh.faces),
+                        name=name or path.stem)
+        if mattress is not None:
+            check_scale(target, mattress, units=units)
+    except InputError as err:
+        raise err.with_path(path)
+    log.info("target %s: %d vertices, %d faces, bounding diagonal %.0f mm",
+             target.name, len(target.vertices), len(target.faces), 1e3 * target.bbox_diagonal)
+    return target
+
+
+def check_scale(target: Target, mattress, *, units: str = "mm") -> None:
+    """Refuse a target whose size does not fit the mattress: a units slip.
+
+    The target's bounding diagonal must be between 0.2 and 50 times the
+    mattress's diagonal.
+
+    Parameters
+    ----------
+    target : Target
+    mattress : design.mattress.Mattress
+    units : str, default "mm"
+        The units the target was read in, to suggest the right ones.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        Saying how large the target is, compared with the mattress, and which
+        units would make it fit.
+    """
+    ratio = target.bbox_diagonal / mattress.diagonal
+    if SCALE_RANGE[0] <= ratio <= SCALE_RANGE[1]:
+        return
+    scale = UNITS.get(units, 1.0)
+    # the units under which the target would be about as large as the mattress (ratio ~ 1.5)
+    guess = min(UNITS, key=lambda u: abs(math.log(ratio * UNITS[u] / scale / 1.5)))
+    size = "larger" if ratio > 1 else "smaller"
+    hint = f"; it looks like the file is in {guess}, not {units}" if guess != units else ""
+    raise InputError(f"target is {ratio:.3g}× the mattress diagonal ({1e3 * target.bbox_diagonal:.4g} mm "
+                     f"vs {1e3 * mattress.diagonal:.0f} mm): far {size} than the "
+                     f"{mattress.size_mm} mattress{hint}", ratio=ratio, guessed_units=guess)

@@ -1,0 +1,153 @@
+"""`airmat design`: files, summary, reproducibility, calibration, and bad input (exit 2, nothing written)."""
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from airmat.cli import main
+from data_synthetic.targets import cylinder
+
+FILES = {"design.json", "approx_surface.ply", "approx_surface.obj", "pattern.svg", "pattern.dxf",
+         "cutting_list.csv", "preview.png"}
+FAST = ["--spacing-mm", "40"]
+
+
+@pytest.fixture(scope="module")
+def cylinder_obj(tmp_path_factory):
+    """A developable target (cylinder R 400 mm) as an OBJ file in mm."""
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.03)
+    path = tmp_path_factory.mktemp("targets") / "cyl.obj"
+    mesh = trimesh.Trimesh(surf.target.vertices * 1e3, surf.target.faces, process=False)
+    path.write_text(trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False))
+    return path
+
+
+def _calibration_folder(folder, *, drop=None):
+    rng = np.random.default_rng(5)
+    folder.mkdir(parents=True, exist_ok=True)
+    doc = {"parameters": {"delta_mm": {"median": 10.0, "lo95": 9.0, "hi95": 11.0},
+                          "d_mm": {"median": 60.0, "lo95": 58.0, "hi95": 62.0}},
+           "curve": {"L_mm": 300.0}}
+    if drop:
+        del doc["parameters"][drop]
+    (folder / "calibration.json").write_text(json.dumps(doc))
+    with open(folder / "posterior.npz", "wb") as fh:
+        np.savez(fh, delta_m=rng.normal(0.010, 0.0005, 800), d_m=rng.normal(0.060, 0.001, 800),
+                 sigma_per_m=np.full(800, 0.1), L_m=np.float64(0.3))
+    return folder
+
+
+def test_design_of_a_target_file_writes_everything_and_is_reproducible(cylinder_obj, tmp_path, capsys):
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(a)]) == 0
+    out = capsys.readouterr().out
+    assert "UNCALIBRATED" in out and "constructible: yes" in out and str(a) in out
+    assert {p.name for p in a.iterdir()} == FILES
+    doc = json.loads((a / "design.json").read_text())
+    assert doc["uncalibrated"] is True and doc["mattress"] == {"width_mm": 830.0, "height_mm": 740.0,
+                                                                "thickness_mm": 70.0}
+    assert doc["dashes"] and {d["family"] for d in doc["dashes"]} == {"k1"}
+    assert {d["side"] for d in doc["dashes"]} == {"bottom"}
+    assert f"bottom face: {len(doc['dashes']):3d} k1 strings" in out
+    assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(b)]) == 0
+    for name in sorted(FILES):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+def test_calibration_folder_is_used_and_labelled(cylinder_obj, tmp_path, capsys):
+    cal = _calibration_folder(tmp_path / "cal")
+    out = tmp_path / "out"
+    assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--calibration", str(cal),
+                 "--out", str(out)]) == 0
+    assert "UNCALIBRATED" not in capsys.readouterr().out
+    doc = json.loads((out / "design.json").read_text())
+    assert doc["uncalibrated"] is False and doc["calibration"]["source"] == str(cal)
+    assert doc["calibration"]["delta_mm"]["median"] == pytest.approx(10.0, abs=0.2)
+    # a tight posterior gives tight tolerances: a few millimetres
+    widths = [d["l_mm"]["hi95"] - d["l_mm"]["lo95"] for d in doc["dashes"]]
+    assert 0 < max(widths) < 6.0
+    assert "UNCALIBRATED" not in (out / "pattern.svg").read_text()
+
+
+def test_parameters_reach_the_files(cylinder_obj, tmp_path):
+    out = tmp_path / "out"
+    assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--L-mm", "250", "--mu1-mm", "300",
+                 "--mu2-mm", "150", "--margin-mm", "40", "--out", str(out), "-q"]) == 0
+    doc = json.loads((out / "design.json").read_text())
+    p = doc["parameters"]
+    assert (p["L_mm"], p["mu1_mm"], p["mu2_mm"], p["margin_mm"]) == (250.0, 300.0, 150.0, 40.0)
+    for d in doc["dashes"]:
+        assert d["L_mm"] == pytest.approx(250.0, abs=0.01)
+        poly = np.array(d["polyline_mm"])
+        assert poly.min() >= 40.0 - 0.01 and np.all(poly <= [830 - 40 + 0.01, 740 - 40 + 0.01])
+
+
+def _mesh_file(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+BAD_MESHES = {
+    "empty.obj": "# nothing here\n",
+    "quad.obj": "v 0 0 0\nv 1000 0 0\nv 1000 800 100\nv 0 800 100\nf 1 2 3 4\n",
+    "nonmanifold.obj": ("v 0 0 0\nv 1000 0 0\nv 500 800 0\nv 500 -800 0\nv 500 0 800\n"
+                        "f 1 2 3\nf 2 1 4\nf 1 2 5\n"),
+    "nan.obj": "v 0 0 0\nv 1000 0 0\nv nan 800 0\nf 1 2 3\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_MESHES))
+def test_bad_meshes_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, name):
+    target = _mesh_file(tmp_path, name, BAD_MESHES[name])
+    _check_refused(tmp_path, capsys, ["design", target, "--mattress", "830x740"], name)
+
+
+def test_units_slip_is_refused(tmp_path, capsys):
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
+    path = tmp_path / "metres.stl"
+    trimesh.Trimesh(surf.target.vertices, surf.target.faces).export(path)  # metres, read as mm
+    _check_refused(tmp_path, capsys, ["design", str(path), "--mattress", "830x740"], "smaller")
+
+
+@pytest.mark.parametrize("args, word", [
+    (["--preset", "castle"], "castle"),
+    (["--preset", "vault1", "--mattress", "830by740"], "--mattress"),
+    (["--preset", "vault1", "--mattress", "0x740"], "--mattress"),
+    (["--preset", "vault1", "--mu1-mm", "200"], "mu1"),
+    (["--preset", "vault1", "--L-mm", "900", "--mu1-mm", "1000"], "longer than the mattress"),
+    (["--preset", "vault1", "--mu2-mm", "0"], "mu2"),
+    (["--preset", "vault1", "--calibration", "CAL_MISSING_FIELD"], "parameters.d_mm"),
+    (["--preset", "vault1", "--calibration", "NO_SUCH_DIR"], "not found"),
+    (["TARGET_FILE", "--preset", "vault1"], "either"),
+    ([], "either"),
+    (["TARGET_FILE"], "--mattress"),
+])
+def test_bad_arguments_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, cylinder_obj, args, word):
+    cal = _calibration_folder(tmp_path / "cal", drop="d_mm")
+    swap = {"CAL_MISSING_FIELD": str(cal), "NO_SUCH_DIR": str(tmp_path / "nope"), "TARGET_FILE": str(cylinder_obj)}
+    _check_refused(tmp_path, capsys, ["design", *[swap.get(a, a) for a in args]], word)
+
+
+def _check_refused(tmp_path, capsys, argv, word):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("previous run")
+    code = main([*argv, "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and err[0].startswith("airmat design: ") and word in err[0], err
+    assert [p.name for p in out.iterdir()] == ["keep.txt"]
+    assert (out / "keep.txt").read_text() == "previous run"
+    assert not [p for p in tmp_path.iterdir() if ".staging-" in p.name]
+
+
+def test_help_lists_the_options(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["design", "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    for option in ("--preset", "--mattress", "--calibration", "--mu1-mm", "--mu2-mm", "--L-mm", "--out"):
+        assert option in text

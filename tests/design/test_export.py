@@ -1,0 +1,166 @@
+"""Workshop files: they open with their own readers, agree with design.json, and are reproducible."""
+
+import csv
+import json
+import xml.etree.ElementTree as ET
+
+import ezdxf
+import numpy as np
+import pytest
+
+from analytic_fields import grid_uv, saddle_field
+from design.calibration_source import default_calibration
+from design.export import (design_document, read_design_json, write_cutting_list, write_design_json,
+                           write_dxf, write_preview, write_svg)
+from design.export.preview import face_sigma
+from design.export.svg import svg_transform
+from design.mattress import Mattress
+from design.string_lengths import string_pattern
+from design.stripes import StripeParams, trace_stripes
+
+MATTRESS = Mattress(0.83, 0.74, 0.07)
+REPORT = {"sigma": {"min": 0.99, "avg": 1.0, "max": 1.01}, "kappa1_per_m": {"avg": 3.0, "max": 3.0},
+          "kappa2_per_m": {"avg": 1.8, "max": 1.8}, "constructible": True, "reasons": []}
+SVG = "{http://www.w3.org/2000/svg}"
+
+
+def _cylinder_surface(radius=0.4):
+    """Ŝ: Ω rolled onto a cylinder of radius ``radius`` about the v axis (isometric: σ = 1)."""
+    uv = grid_uv(MATTRESS.width, MATTRESS.height, 0.05)
+    nu = len(np.unique(uv[:, 0]))
+    nv = len(uv) // nu
+    i, j = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1))
+    a = (j * nu + i).ravel()
+    faces = np.concatenate([np.column_stack([a, a + 1, a + nu + 1]), np.column_stack([a, a + nu + 1, a + nu])])
+    t = uv[:, 0] / radius
+    xyz = np.column_stack([radius * np.sin(t), uv[:, 1], radius * (np.cos(t) - 1.0)])
+    return xyz, uv, faces
+
+
+def _document(seed=0):
+    mf = saddle_field(kappa=3.0)
+    stripes = trace_stripes(mf, StripeParams())
+    cal = default_calibration(seed=seed, n_samples=400)
+    pattern = string_pattern(mf, stripes.dashes, cal, L=0.3, notes=stripes.notes)
+    return design_document(pattern, mattress=MATTRESS, calibration=cal, report=REPORT,
+                           parameters={"L_mm": 300.0}, seed=seed, name="saddle-test"), pattern
+
+
+def _write_all(folder, doc):
+    folder.mkdir(parents=True, exist_ok=True)
+    write_design_json(folder / "design.json", doc)
+    write_svg(folder / "pattern.svg", doc)
+    write_dxf(folder / "pattern.dxf", doc)
+    write_cutting_list(folder / "cutting_list.csv", doc)
+    write_preview(folder / "preview.png", doc, *_cylinder_surface(), dpi=40)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    doc, pattern = _document()
+    return _write_all(tmp_path_factory.mktemp("design"), doc), doc, pattern
+
+
+def test_design_json_round_trips_and_describes_every_string(written):
+    folder, doc, pattern = written
+    back = read_design_json(folder / "design.json")
+    assert back == json.loads(json.dumps(doc))
+    assert back["uncalibrated"] is True and back["calibration"]["uncalibrated"] is True
+    assert len(back["dashes"]) == len(pattern.strings) > 0
+    assert {d["side"] for d in back["dashes"]} == {"top", "bottom"}
+    for d, s in zip(back["dashes"], pattern.strings):
+        assert d["id"] == s.dash.id
+        np.testing.assert_allclose(np.array(d["polyline_mm"]) * 1e-3, s.dash.polyline, atol=0.006e-3)
+        assert d["a_mm"] == d["polyline_mm"][0] and d["b_mm"] == d["polyline_mm"][-1]
+        assert d["L_mm"] == pytest.approx(300.0, abs=0.01)
+        assert d["l_mm"]["lo95"] <= d["l_mm"]["median"] <= d["l_mm"]["hi95"]
+        assert d["l_mm"]["median"] == pytest.approx(s.l_median * 1e3, abs=0.006)
+        assert (d["kappa_per_m"] < 0) == (d["side"] == "top")
+    strings = back["summary"]["strings"]
+    assert sum(strings[f][k] for f in strings for k in strings[f]) == len(back["dashes"])
+
+
+def test_svg_is_1_to_1_mm_and_agrees_with_the_json(written):
+    folder, doc, _ = written
+    root = ET.parse(folder / "pattern.svg").getroot()
+    W, H = doc["mattress"]["width_mm"], doc["mattress"]["height_mm"]
+    w_mm, h_mm = float(root.get("width")[:-2]), float(root.get("height")[:-2])
+    assert root.get("width").endswith("mm") and root.get("height").endswith("mm")
+    assert [float(x) for x in root.get("viewBox").split()] == [0.0, 0.0, w_mm, h_mm]
+    assert w_mm > 2 * W and h_mm > H
+    text = " ".join(t.text or "" for t in root.iter(f"{SVG}text"))
+    assert "UNCALIBRATED" in text and "saddle-test" in text and "mirrored" in text
+    groups = {g.get("id"): g for g in root.iter(f"{SVG}g")}
+    for d in doc["dashes"]:
+        g = groups[d["id"]]
+        pts = np.array([[float(c) for c in p.split(",")] for p in g.find(f"{SVG}polyline").get("points").split()])
+        poly = np.array(d["polyline_mm"])
+        x, y = svg_transform(d["side"], poly[:, 0], poly[:, 1], W, H)
+        np.testing.assert_allclose(pts, np.column_stack([x, y]), atol=0.006)
+        assert d["id"] in [t.text for t in g.iter(f"{SVG}text")]
+    # the bottom face is mirrored: u = 0 lies at its right edge
+    x0, _ = svg_transform("bottom", 0.0, 0.0, W, H)
+    xW, _ = svg_transform("bottom", W, 0.0, W, H)
+    assert x0 - xW == pytest.approx(W)
+
+
+def test_dxf_reopens_in_mm_with_a_layer_per_face_and_family(written):
+    folder, doc, _ = written
+    dxf = ezdxf.readfile(folder / "pattern.dxf")
+    assert dxf.units == ezdxf.units.MM and dxf.header["$INSUNITS"] == ezdxf.units.MM
+    layers = {layer.dxf.name for layer in dxf.layers}
+    assert {"TOP_K1", "TOP_K2", "BOTTOM_K1", "BOTTOM_K2", "OUTLINE"} <= layers
+    msp = dxf.modelspace()
+    texts = {t.dxf.text: t.dxf.layer for t in msp.query("TEXT")}
+    polys = [p for p in msp.query("LWPOLYLINE") if p.dxf.layer != "OUTLINE"]
+    assert len(polys) == len(doc["dashes"])
+    for p, d in zip(polys, doc["dashes"]):
+        layer = f"{d['side'].upper()}_{d['family'].upper()}"
+        assert p.dxf.layer == layer and texts[d["id"]] == layer
+        np.testing.assert_allclose(np.array(p.get_points("xy")), d["polyline_mm"], atol=1e-9)
+    outline = [p for p in msp.query("LWPOLYLINE") if p.dxf.layer == "OUTLINE"][0]
+    np.testing.assert_allclose(np.array(outline.get_points("xy")),
+                               [[0, 0], [830, 0], [830, 740], [0, 740]])
+
+
+def test_cutting_list_is_sorted_for_the_workshop_and_agrees(written):
+    folder, doc, _ = written
+    with open(folder / "cutting_list.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(doc["dashes"])
+    keys = [(r["face"], r["family"], r["id"]) for r in rows]
+    assert keys == sorted(keys)
+    by_id = {d["id"]: d for d in doc["dashes"]}
+    for r in rows:
+        d = by_id[r["id"]]
+        assert r["face"] == d["side"] and r["family"] == d["family"]
+        assert float(r["l_median_mm"]) == pytest.approx(d["l_mm"]["median"], abs=0.005)
+        assert float(r["l_lo95_mm"]) == pytest.approx(d["l_mm"]["lo95"], abs=0.005)
+        assert float(r["l_hi95_mm"]) == pytest.approx(d["l_mm"]["hi95"], abs=0.005)
+        assert float(r["kappa_per_m"]) == pytest.approx(d["kappa_per_m"], abs=5e-5)
+        assert float(r["L_mm"]) == pytest.approx(d["L_mm"], abs=0.005)
+
+
+def test_preview_is_a_png_and_sigma_of_an_isometric_roll_is_one(written):
+    folder, _, _ = written
+    assert (folder / "preview.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    xyz, uv, faces = _cylinder_surface()
+    sigma = face_sigma(xyz, uv, faces)
+    # chords of a circle of radius R over an arc h are shorter by about h^2 / (24 R^2)
+    assert np.all(np.abs(sigma - 1.0) < 0.05 ** 2 / (24 * 0.4 ** 2) * 1.01)
+
+
+def test_same_design_gives_byte_identical_files(tmp_path, written):
+    folder, _, _ = written
+    doc, _ = _document()
+    again = _write_all(tmp_path / "again", doc)
+    for name in ("design.json", "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png"):
+        assert (again / name).read_bytes() == (folder / name).read_bytes(), name
+
+
+def test_other_seed_changes_only_the_tolerances(tmp_path, written):
+    _, doc, _ = written
+    other, _ = _document(seed=1)
+    assert [d["polyline_mm"] for d in other["dashes"]] == [d["polyline_mm"] for d in doc["dashes"]]
+    assert [d["l_mm"] for d in other["dashes"]] != [d["l_mm"] for d in doc["dashes"]]

@@ -1,0 +1,94 @@
+"""End to end on developable targets: σ ≈ 1, no k2 strings, k1 strings that invert the local curvature."""
+
+import numpy as np
+import pytest
+from scipy.interpolate import LinearNDInterpolator
+
+from airmat.errors import InputError
+from calib.model import kappa1, string_length
+from data_synthetic.targets import cone, cylinder
+from design.calibration_source import CalibrationSource
+from design.mattress import Mattress
+from design.pipeline import OUTPUT_FILES, DesignParams, design, write_design
+
+MATTRESS = Mattress(0.83, 0.74)
+#: a point calibration (the paper's values), so that l inverts Equation 3 exactly
+POINT = CalibrationSource(L=0.3, delta=np.array([0.018]), d=np.array([0.070]), source="test",
+                          uncalibrated=True, label="paper point values")
+PARAMS = DesignParams(spacing=0.04)  # coarse Ω mesh: fast; curvature still within a few percent
+#: relative error allowed on curvature estimated from a 40 mm mesh of Ŝ (observed below 2 %)
+KAPPA_RTOL = 0.03
+
+
+def _dash_points_on_S(result, string, n=10):
+    """The dash's N equally spaced points (as in §3.3.3) carried from Ω to Ŝ (m)."""
+    poly = string.dash.polyline
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(poly, axis=0), axis=1))])
+    t = np.linspace(0.0, s[-1], n)
+    pts = np.column_stack([np.interp(t, s, poly[:, 0]), np.interp(t, s, poly[:, 1])])
+    return LinearNDInterpolator(result.approx.uv, result.approx.xyz)(pts)
+
+
+@pytest.fixture(scope="module")
+def cyl():
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.02)
+    return surf, design(surf.target, MATTRESS, calibration=POINT, params=PARAMS, progress=False)
+
+
+@pytest.fixture(scope="module")
+def con():
+    surf = cone(r_crown=0.35, half_angle=0.2, length=1.2, arc=1.0, spacing=0.02)
+    return surf, design(surf.target, MATTRESS, calibration=POINT, params=PARAMS, progress=False)
+
+
+def test_cylinder_is_developable_and_needs_only_k1_strings(cyl):
+    surf, r = cyl
+    sigma = r.approx.report.sigma
+    assert abs(sigma["min"] - 1) < 0.005 and abs(sigma["max"] - 1) < 0.005
+    assert r.approx.report.constructible
+    assert r.pattern.strings and all(s.dash.family == "k1" for s in r.pattern.strings)
+    assert r.pattern.n_dashes["k2"] == 0 and "needs no strings" in r.stripes.families[1].note
+    # bends away from the top (up) normal: kappa > 0, strings on the bottom face
+    assert all(s.side == "bottom" and s.kappa > 0 for s in r.pattern.strings)
+
+
+def test_cylinder_strings_invert_the_curvature_1_over_R(cyl):
+    surf, r = cyl
+    k_true = 1.0 / surf.params["radius"]
+    for s in r.pattern.strings:
+        assert s.kappa == pytest.approx(k_true, rel=KAPPA_RTOL)
+        assert kappa1(s.l_median, 0.3, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
+        assert s.l_median == pytest.approx(float(string_length(k_true, 0.3, 0.018, 0.070)), abs=0.005)
+        # the dash runs around the axis (x): its chord on Ŝ is perpendicular to it
+        p = _dash_points_on_S(r, s)
+        chord = p[-1] - p[0]
+        assert abs(chord[0]) < 0.05 * np.linalg.norm(chord)
+
+
+def test_cone_strings_follow_the_local_curvature(con):
+    surf, r = con
+    assert abs(r.approx.report.sigma["min"] - 1) < 0.005 and abs(r.approx.report.sigma["max"] - 1) < 0.005
+    assert r.pattern.strings and all(s.dash.family == "k1" for s in r.pattern.strings)
+    kappas = []
+    for s in r.pattern.strings:
+        k_true = float(np.mean(surf.curvature(_dash_points_on_S(r, s))[0][:, 0]))
+        assert s.kappa == pytest.approx(k_true, rel=KAPPA_RTOL)
+        assert kappa1(s.l_median, 0.3, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
+        kappas.append(k_true)
+    assert np.ptp(kappas) > 0.2 * np.mean(kappas)  # the test sees a real variation along the cone
+
+
+def test_impossible_parameters_fail_before_any_work():
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
+    with pytest.raises(InputError, match="mu1"):
+        design(surf.target, MATTRESS, params=DesignParams(mu1=0.2), progress=False)
+    with pytest.raises(InputError, match="longer than the mattress"):
+        design(surf.target, Mattress(0.32, 0.25), params=DesignParams(), progress=False)
+
+
+def test_write_design_writes_every_file(cyl, tmp_path):
+    _, r = cyl
+    doc = write_design(r, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(OUTPUT_FILES)
+    assert doc["report"]["constructible"] is True and doc["summary"]["strings"]["top"] == {"k1": 0, "k2": 0}
+    assert doc["parameters"]["L_mm"] == 300.0 and doc["calibration"]["source"] == "test"

@@ -1,0 +1,148 @@
+"""Loading and validating target meshes (design.target)."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from airmat.errors import InputError
+from design.mattress import Mattress
+from design.target import Target, check_scale, load_target
+
+SMALL = Mattress(0.83, 0.74)
+
+
+def _grid_mesh(n=6, size_mm=1000.0):
+    """A gently curved (n × n)-vertex sheet in mm, normals up."""
+    s = np.linspace(0, size_mm, n)
+    x, y = np.meshgrid(s, s)
+    v = np.column_stack([x.ravel(), y.ravel(), 1e-4 * (x.ravel() - 500) ** 2])
+    i = np.arange(n * n).reshape(n, n)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, 1:].ravel(), i[1:, :-1].ravel()
+    f = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    return v, f
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off"])
+def test_each_format_loads_in_metres(tmp_path, ext):
+    v, f = _grid_mesh()
+    path = tmp_path / f"sheet.{ext}"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    t = load_target(path, mattress=SMALL)
+    assert t.name == "sheet"
+    assert len(t.faces) == len(f)
+    assert len(t.vertices) == len(v)  # STL's per-triangle copies are merged
+    # same geometry, in metres (order may differ after merging)
+    assert np.allclose(np.sort(t.vertices, axis=0), np.sort(v * 1e-3, axis=0), atol=1e-9)
+    assert t.bbox_diagonal == pytest.approx(np.linalg.norm(np.ptp(v, axis=0)) * 1e-3, rel=1e-6)
+
+
+def test_units_option(tmp_path):
+    v, f = _grid_mesh()
+    path = tmp_path / "sheet.ply"
+    trimesh.Trimesh(v * 1e-3, f, process=False).export(path)
+    t = load_target(path, units="m")
+    assert np.ptp(t.vertices[:, 0]) == pytest.approx(1.0)
+    with pytest.raises(InputError, match="unknown units"):
+        load_target(path, units="furlong")
+
+
+def test_missing_and_unsupported(tmp_path):
+    with pytest.raises(InputError, match="not found") as err:
+        load_target(tmp_path / "nope.obj")
+    assert err.value.path.endswith("nope.obj")
+    (tmp_path / "a.dxf").write_text("0\nEOF\n")
+    with pytest.raises(InputError, match="unsupported target format"):
+        load_target(tmp_path / "a.dxf")
+
+
+@pytest.mark.parametrize("ext", ["ply", "off"])
+def test_garbage_is_unreadable(tmp_path, ext):
+    path = tmp_path / f"bad.{ext}"
+    path.write_bytes(b"garbage\x00\x01 not a mesh\n")
+    with pytest.raises(InputError, match="cannot read") as err:
+        load_target(path)
+    assert err.value.path == str(path)
+
+
+@pytest.mark.parametrize("ext", ["obj", "stl"])
+def test_empty_mesh(tmp_path, ext):
+    path = tmp_path / f"empty.{ext}"
+    path.write_bytes(b"")
+    with pytest.raises(InputError, match="empty mesh") as err:
+        load_target(path)
+    assert err.value.path == str(path)
+
+
+def test_point_cloud_is_empty_mesh(tmp_path):
+    path = tmp_path / "cloud.ply"
+    trimesh.PointCloud(np.random.default_rng(0).normal(size=(20, 3))).export(path)
+    with pytest.raises(InputError, match="empty mesh"):
+        load_target(path)
+
+
+QUADS = {
+    "obj": "v 0 0 0\nv 1000 0 0\nv 1000 1000 0\nv 0 1000 0\nv 2000 0 0\nv 2000 1000 0\n"
+           "f 1 2 3 4\nf 2 5 6 3\n",
+    "off": "OFF\n6 2 0\n0 0 0\n1000 0 0\n1000 1000 0\n0 1000 0\n2000 0 0\n2000 1000 0\n"
+           "4 0 1 2 3\n4 1 4 5 2\n",
+    "ply": "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+           "0 0 0\n1000 0 0\n1000 1000 0\n0 1000 0\n2000 0 0\n2000 1000 0\n4 0 1 2 3\n4 1 4 5 2\n",
+}
+
+
+@pytest.mark.parametrize("ext", sorted(QUADS))
+def test_non_triangle_faces_are_refused(tmp_path, ext):
+    path = tmp_path / f"quads.{ext}"
+    path.write_text(QUADS[ext])
+    with pytest.raises(InputError, match="non-triangle faces") as err:
+        load_target(path)
+    assert err.value.data["n_polygons"] == 2
+
+
+def test_nan_vertices(tmp_path):
+    path = tmp_path / "nan.obj"
+    path.write_text("v 0 0 0\nv 1000 0 0\nv nan 1000 0\nv 0 1000 0\nf 1 2 3\nf 1 3 4\n")
+    with pytest.raises(InputError, match="NaN or infinite") as err:
+        load_target(path)
+    assert err.value.data["n_bad"] == 1
+
+
+def test_non_manifold_edges_are_counted(tmp_path):
+    # three triangles on the edge (0, 1), two on the edge (0, 4)
+    v = np.array([[0, 0, 0], [1000, 0, 0], [500, 800, 0], [500, -800, 0], [500, 0, 800], [0, 0, 900.0]])
+    f = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4], [0, 4, 5]])
+    path = tmp_path / "fin.obj"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    with pytest.raises(InputError, match="1 non-manifold edges") as err:
+        load_target(path)
+    assert err.value.data["n_nonmanifold"] == 1
+
+
+def test_units_slip_says_which_units(tmp_path):
+    v, f = _grid_mesh()
+    path = tmp_path / "in_metres.obj"
+    trimesh.Trimesh(v * 1e-3, f, process=False).export(path)  # a 1.4 m sheet written in metres
+    with pytest.raises(InputError, match="looks like the file is in m, not mm") as err:
+        load_target(path, mattress=SMALL)  # read as mm: 1.4 mm
+    assert err.value.data["ratio"] < 0.2
+    assert err.value.path == str(path)
+    big = tmp_path / "in_microns.obj"
+    trimesh.Trimesh(v * 1e3, f, process=False).export(big)
+    with pytest.raises(InputError, match="far larger"):
+        load_target(big, mattress=SMALL)
+
+
+def test_check_scale_accepts_sizes_near_the_mattress():
+    v, f = _grid_mesh()
+    check_scale(Target(v * 1e-3, f), SMALL)  # 1.4 m diagonal on a 1.1 m mattress
+
+
+def test_target_validates_arrays():
+    v, f = _grid_mesh()
+    with pytest.raises(InputError, match="expected \\(m, 3\\)"):
+        Target(v, f[:, :2])
+    with pytest.raises(InputError, match="face indices"):
+        Target(v, f + len(v))
+    with pytest.raises(InputError, match="empty mesh"):
+        Target(np.zeros((0, 3)), np.zeros((0, 3), int))
