@@ -17,6 +17,12 @@ from typing import Iterator
 __all__ = ["staged_dir", "atomic_write_bytes", "atomic_write_text"]
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def staged_dir(out: str | os.PathLike) -> Iterator[Path]:
     """Stage every output of a run and publish them into ``out`` on success.
@@ -41,10 +47,12 @@ def staged_dir(out: str | os.PathLike) -> Iterator[Path]:
     try:
         yield tmp
         out.mkdir(parents=True, exist_ok=True)
+        mode = 0o666 & ~_umask()
         for src in sorted(tmp.rglob("*")):
             if src.is_file():
                 dst = out / src.relative_to(tmp)
                 dst.parent.mkdir(parents=True, exist_ok=True)
+                os.chmod(src, mode)
                 os.replace(src, dst)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -58,6 +66,7 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; outputs are ordinary files
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):

@@ -57,7 +57,7 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
     root.handlers[:] = [handler]
     root.setLevel(level)
     # third-party chatter stays at warnings
-    for noisy in ("matplotlib", "PIL", "trimesh", "numba", "fontTools"):
+    for noisy in ("matplotlib", "PIL", "trimesh", "numba", "fontTools", "ezdxf"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
 
 

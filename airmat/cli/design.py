@@ -36,9 +36,9 @@ def add_parser(sub, parents):
     p.add_argument("--weight-min", type=float, default=0.02,
                    help="lines stop where the principal-direction weight is below this (umbilics; "
                         "0 traces through them; default 0.02)")
-    p.add_argument("--k-a1", type=float, default=1.0, help="U_A edge-length weight (default 1)")
-    p.add_argument("--k-a2", type=float, default=0.05, help="U_A closest-point weight (default 0.05)")
-    p.add_argument("--k-a3", type=float, default=0.02, help="U_A smoothing weight (default 0.02)")
+    p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (default: the relaxation's)")
+    p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (default: the relaxation's)")
+    p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png")
@@ -86,7 +86,7 @@ def _params(args):
 
     _positive(args, ["L_mm", "mu1_mm", "mu2_mm", "spacing_mm", "step_mm", "thickness_mm", "k_a1"])
     if not (args.margin_mm >= 0 and args.kappa_min_per_m >= 0 and args.weight_min >= 0
-            and min(args.k_a2, args.k_a3) >= 0):
+            and all(k is None or k >= 0 for k in (args.k_a2, args.k_a3))):
         raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --k-a2 and --k-a3 must be >= 0")
     mm = 1e-3
     return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=args.mu1_mm * mm,

@@ -47,3 +47,14 @@ def test_atomic_write_text_replaces_whole_file(tmp_path):
     atomic_write_text(p, "two")
     assert p.read_text() == "two"
     assert [q.name for q in tmp_path.iterdir()] == ["f.txt"]
+
+
+def test_outputs_are_ordinary_readable_files(tmp_path):
+    import os
+    import stat
+    p = tmp_path / "f.txt"
+    atomic_write_text(p, "x")
+    with staged_dir(tmp_path / "out") as tmp:
+        (tmp / "g.txt").write_text("y")
+    for f in (p, tmp_path / "out" / "g.txt"):
+        assert os.stat(f).st_mode & stat.S_IROTH

@@ -1,0 +1,8 @@
+"""Test-wide settings."""
+
+import os
+
+# One BLAS thread: on this 2-core machine OpenBLAS threads oversubscribe the
+# cores under pytest and made scipy's Delaunay.transform 20-100x slower.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
