@@ -26,7 +26,7 @@ def test_each_subcommand_has_help_with_common_options(name, capsys):
 
 def test_unknown_option_is_a_one_line_usage_error(capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["fit", "--no-such-option"])
+        main(["fit", "scan.ply", "--no-such-option"])
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no-such-option" in err[0]
