@@ -4,18 +4,20 @@ The pipeline, each step in its own module:
 
 1. local noise from voxel roughness (:mod:`calib.scan_noise`), which sets
    every threshold (so they scale with the scanner, not bare constants);
-2. voxel downsampling that drops sparse clutter voxels and gives each
-   voxel a normal (:mod:`calib.voxel_grid`), then the support plane(s) the
-   specimen rests on (:mod:`calib.support_plane`, open3d ``segment_plane``),
-   taking care that a flat specimen is not one;
+2. voxel downsampling that drops sparse clutter voxels
+   (:mod:`calib.voxel_grid`), normals (open3d), then the support plane(s)
+   the specimen rests on (:mod:`calib.support_plane`, open3d
+   ``segment_plane``), taking care that a flat specimen is not one;
 3. axis from the scatter of the normals, circle by RANSAC (scikit-image)
    in the projection along it, or a quadratic height field for a nearly
    flat specimen (:mod:`calib.cylinder_init`);
 4. robust geometric least squares over axis direction, position and
-   curvature, first on the downsampled points, then on the
-   full-resolution points near the surface (:mod:`calib.cylinder_lsq`),
-   (a trust region on a subsample, then Gauss-Newton on all points), with
-   the standard error of kappa from a cluster-robust covariance.
+   curvature (:mod:`calib.cylinder_lsq`): a trust region on the
+   downsampled points, then rounds on a random subset of the
+   full-resolution points near the surface that leave out the string-end
+   grooves (:mod:`calib.groove_bands`), then Newton steps on all of them
+   (:mod:`calib.cylinder_irls`), with the standard error of kappa from a
+   cluster-robust sandwich covariance.
 
 Steps 1-3 look at a random subset of at most 100,000 points; step 4 at
 every point near the surface.
@@ -34,8 +36,9 @@ import numpy as np
 
 from airmat.errors import InputError, NotACylinderError
 from calib.cylinder_init import initial_cylinder
+from calib.cylinder_irls import kappa_standard_error, polish
+from calib.cylinder_lsq import arc_position, refine, residuals
 from calib.groove_bands import groove_bands
-from calib.cylinder_lsq import arc_position, kappa_standard_error, polish, refine, residuals
 from calib.scan_noise import local_noise
 from calib.support_plane import find_support_planes
 from calib.voxel_grid import voxel_cloud
@@ -172,32 +175,43 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     """
     pts = _check_points(points)
     rng = np.random.default_rng(seed)
-    lo, hi = np.percentile(pts, [0.5, 99.5], axis=0)
-    diag = float(np.linalg.norm(hi - lo))
     sub = pts[rng.choice(len(pts), _SUB, replace=False)] if len(pts) > _SUB else pts
+    lo, hi = np.percentile(sub, [0.5, 99.5], axis=0)
+    diag = float(np.linalg.norm(hi - lo))
     est = local_noise(sub, seed=rng)
     if not (est.roughness < 0.15):
         raise NotACylinderError(
             f"points do not sample a surface: local scatter {est.sigma * 1e3:.3g} mm in "
             f"{est.voxel * 1e3:.3g} mm voxels", roughness=est.roughness)
     sigma = float(noise) if noise is not None else max(est.sigma, 1e-6 * diag)
-    cand, n_support = _specimen_candidates(pts, sub, sigma, diag, remove_support, rng)
+    cand, n_support = _specimen_candidates(pts, sub, sigma, diag, est, remove_support, rng)
     cand_sub = cand[rng.choice(len(cand), _SUB, replace=False)] if len(cand) > _SUB else cand
     density = 24.0 / est.voxel**2 * len(pts) / len(sub)  # points per m^2 of surface, full scan
     down = voxel_cloud(cand_sub, _voxel_for(len(cand), len(cand_sub), density, sigma), min_count=5).points
     if len(down) < MIN_FIT_POINTS:
         raise NotACylinderError(f"only {len(down)} surface voxels left off the floor plane(s)",
                                 n_points=len(down))
-    frame, init_in, scatter = initial_cylinder(
+    init = initial_cylinder(
         down, _normals(down), threshold=max(4 * sigma, 2e-3 * diag), max_planarity=max_planarity,
-        seed=int(rng.integers(2**31)))
-    stage = refine(down[init_in], frame, f_scale=sigma, max_nfev=100)
+        flat_deg=_FLAT_DEG, seed=int(rng.integers(2**31)))
+    scatter = init.scatter
+    if init.nearly_flat:  # axis from the height field, held still: Gauss-Newton
+        stage = polish(down[init.inliers], init.frame, f_scale=sigma, loss="soft_l1", hold_axis=True)
+    else:
+        stage = refine(down[init.inliers], init.frame, f_scale=sigma, max_nfev=100)
+    # a flat specimen keeps the footprint's axis: choosing the direction of largest
+    # apparent curvature would bias |kappa| up
+    hold = True if init.flat else None
     frame, final, used, n_more = _full_resolution(cand, stage.frame, sigma, band_sigmas, loss,
-                                                  loss_sigmas * sigma, n_subsample, groove_sigmas, rng)
+                                                  loss_sigmas * sigma, n_subsample, groove_sigmas, rng,
+                                                  hold)
     return _summarize(cand, frame, final, used, pts, n_support, sigma, stage.n_iter + n_more, scatter,
                       inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss,
                       loss_sigmas * sigma, n_clusters)
 
+
+#: normal spread (degrees) below which a specimen is initialized as nearly flat
+_FLAT_DEG = 20.0
 
 #: points the noise estimate, the plane search and the initialization look at (random subset)
 _SUB = 100_000
@@ -237,11 +251,12 @@ def _voxel_for(n_cand, n_cand_sub, density, sigma, fill=20.0, max_voxels=15_000)
     return float(max(v_fill, np.sqrt(area / max_voxels), 6 * sigma))
 
 
-def _specimen_candidates(pts, sub, sigma, diag, remove_support, rng):
+def _specimen_candidates(pts, sub, sigma, diag, est, remove_support, rng):
     """Points off the support plane(s), and how many were on them."""
     if not remove_support:
         return pts, 0
-    coarse = voxel_cloud(sub, diag / 100, min_count=3).points
+    # coarse grid for the plane search; sparse scans need voxels holding a few points
+    coarse = voxel_cloud(sub, max(diag / 100, 0.6 * est.voxel), min_count=3).points
     if len(coarse) < MIN_FIT_POINTS:
         return pts, 0
     planes = find_support_planes(coarse, normals=_normals(coarse), threshold=4 * sigma,
@@ -254,24 +269,27 @@ def _specimen_candidates(pts, sub, sigma, diag, remove_support, rng):
 
 
 def _full_resolution(cand, frame, sigma, band_sigmas, loss, f_scale, n_subsample, groove_sigmas, rng,
-                     n_rounds=4):
+                     hold_axis, n_rounds=5):
     """Robust fit on the full-resolution points near the surface.
 
     Rounds on a random subset of at most ``n_subsample`` points: select the
     points within the band minus the groove bands
-    (:func:`calib.groove_bands.groove_bands`) and refit, until the selection
-    settles; then the same selection on every point and Gauss-Newton steps
-    on all of them (:func:`calib.cylinder_lsq.polish`, which starts within
-    the subsample's sampling error of the optimum).
+    (:func:`calib.groove_bands.groove_bands`, coarse to fine: the band
+    tolerance shrinks to ``groove_sigmas`` over the first rounds, so that a
+    start that followed a groove is pulled off it first) and refit, until
+    the selection settles; then the same selection on every point and
+    Gauss-Newton steps on all of them (:func:`calib.cylinder_lsq.polish`,
+    which starts within the subsample's sampling error of the optimum).
     """
     sub = cand[rng.choice(len(cand), n_subsample, replace=False)] if len(cand) > n_subsample else cand
     seed = int(rng.integers(2**31))
     n_iter, used = 0, None
-    for _ in range(n_rounds):
-        keep, grooves = _select(sub, frame, sigma, band_sigmas, groove_sigmas, seed)
-        settled = used is not None and np.count_nonzero(keep != used) < 1e-3 * len(sub)
+    tols = [max(groove_sigmas, t) for t in (1.0, 0.5)] + [groove_sigmas] * n_rounds
+    for r in range(n_rounds):
+        keep, grooves = _select(sub, frame, sigma, band_sigmas, tols[r], seed)
+        settled = r >= 2 and np.count_nonzero(keep != used) < 1e-3 * len(sub)
         used = keep
-        result = polish(sub[keep], frame, f_scale=f_scale, loss=loss)
+        result = polish(sub[keep], frame, f_scale=f_scale, loss=loss, hold_axis=hold_axis)
         n_iter += result.n_iter
         frame = result.frame
         if settled:
@@ -279,13 +297,16 @@ def _full_resolution(cand, frame, sigma, band_sigmas, loss, f_scale, n_subsample
     if sub is not cand:
         keep = np.abs(residuals(cand, frame)) < band_sigmas * sigma
         keep[keep] = ~grooves.classify(cand[keep], frame)
-        result = polish(cand[keep], frame, f_scale=f_scale, loss=loss, max_iter=5)
+        # the subset's fit is off by its own sampling error, sqrt(N / n) full-set errors
+        trust = 3.0 * np.sqrt(np.count_nonzero(keep) / max(np.count_nonzero(used), 1))
+        result = polish(cand[keep], frame, f_scale=f_scale, loss=loss, max_iter=8, hold_axis=hold_axis,
+                        trust_one_step=trust)
         n_iter += result.n_iter
         frame = result.frame
     return frame, result, keep, n_iter
 
 
-def _select(points, frame, sigma, band_sigmas, groove_sigmas, seed):
+def _select(points, frame, sigma, band_sigmas, groove_tol, seed):
     """(N,) bool: points within ``band_sigmas`` noise levels of the surface, outside groove bands."""
     e = residuals(points, frame)
     near = np.abs(e) < band_sigmas * sigma
@@ -293,7 +314,7 @@ def _select(points, frame, sigma, band_sigmas, groove_sigmas, seed):
         raise NotACylinderError(f"only {int(near.sum())} points within {band_sigmas:g} noise "
                                 f"levels of the fitted cylinder")
     idx = np.flatnonzero(near)
-    grooves = groove_bands(points[idx], frame, sigma=sigma, seed=seed, tol_sigmas=groove_sigmas)
+    grooves = groove_bands(points[idx], frame, sigma=sigma, seed=seed, tol_sigmas=groove_tol)
     near[idx[grooves.excluded]] = False
     return near, grooves
 
@@ -302,7 +323,8 @@ def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter,
                min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters):
     e = residuals(cand, frame)
     near = np.abs(e) < 10 * sigma
-    scale = 1.4826 * float(np.median(np.abs(e[near]))) if near.any() else np.inf
+    stride = max(len(e) // 50_000, 1)  # order statistics from a systematic subsample (speed)
+    scale = 1.4826 * float(np.median(np.abs(e[near][::stride]))) if near.any() else np.inf
     inl = np.abs(e) < inlier_sigmas * max(sigma, scale)
     n_inl = int(np.count_nonzero(inl))
     frac = n_inl / len(cand)
@@ -310,16 +332,17 @@ def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter,
         raise NotACylinderError(f"only {100 * frac:.0f}% inliers (need {100 * min_inlier_fraction:.0f}%)"
                                 + _why(scatter), inlier_fraction=frac)
     rms = float(np.sqrt(np.mean(e[inl] ** 2)))
-    ext = float(np.linalg.norm(np.ptp(cand[inl], axis=0)))
+    inl_sub = cand[inl][::stride]
+    ext = float(np.linalg.norm(np.ptp(inl_sub, axis=0)))
     if rms > max_rms_ratio * sigma and rms > max_rms_rel * ext:
         raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {sigma * 1e3:.2g} mm noise"
                                 + _why(scatter), rms=rms, noise=sigma)
     se_iid, se_cl = kappa_standard_error(cand[used], frame, f_scale=f_scale, loss=loss,
-                                         n_clusters=n_clusters)
+                                         n_clusters=n_clusters, state=final.state)
     kappa, se = abs(frame.kappa), max(se_iid, se_cl)
     flat = kappa < 2 * se
     center = frame.origin if flat else frame.origin + frame.normal / frame.kappa
-    s = arc_position(cand[inl], frame)
+    s = arc_position(inl_sub, frame)
     q_lo, q_hi = np.quantile(s, [0.005, 0.995])
     arc = float(np.degrees((q_hi - q_lo) / 0.99 * kappa))
     axis = frame.axis * np.sign(frame.axis[np.argmax(np.abs(frame.axis))])
@@ -333,6 +356,8 @@ def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter,
 
 
 def _why(scatter) -> str:
-    if scatter.spread_deg >= 20 and scatter.planarity > 0.1:
-        return f"; normals do not lie well in a plane (eigenvalue ratio {scatter.planarity:.2f}, sphere-like?)"
+    """A hint when the normals already looked unlike a cylinder's."""
+    if scatter.spread_deg >= _FLAT_DEG and (scatter.planarity > 0.1 or scatter.in_band < 0.6):
+        return (f"; normals do not lie in a plane (sphere-like?): eigenvalue ratio "
+                f"{scatter.planarity:.2f}, {100 * scatter.in_band:.0f}% within 10 degrees of one")
     return ""

@@ -25,7 +25,8 @@ import numpy as np
 from airmat.errors import NotACylinderError
 from calib.cylinder_lsq import CylinderFrame
 
-__all__ = ["NormalScatter", "normal_scatter", "initial_cylinder", "circle_init", "height_field_init"]
+__all__ = ["NormalScatter", "normal_scatter", "InitialCylinder", "initial_cylinder", "circle_init",
+           "height_field_init"]
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,32 @@ def normal_scatter(normals: np.ndarray, *, band_deg: float = 10.0, n_iter: int =
     planarity = float(lam[0] / max(lam[1], np.finfo(float).tiny))
     spread = float(np.degrees(np.sqrt(12.0 * max(lam[1], 0.0))))
     return NormalScatter(axis=axis, planarity=planarity, spread_deg=spread, in_band=float(keep.mean()))
+
+
+@dataclass(frozen=True)
+class InitialCylinder:
+    """Outcome of :func:`initial_cylinder`.
+
+    Attributes
+    ----------
+    frame : CylinderFrame
+        The initial cylinder.
+    inliers : ndarray of shape (N,), bool
+        Points the estimate rests on.
+    scatter : NormalScatter
+        What the normals said.
+    nearly_flat : bool
+        Initialized from the height field (normals spread below ``flat_deg``).
+    flat : bool
+        Nearly flat and without significant curvature: the axis is the
+        footprint's short direction, not a measured one.
+    """
+
+    frame: CylinderFrame
+    inliers: np.ndarray
+    scatter: NormalScatter
+    nearly_flat: bool
+    flat: bool
 
 
 def _perp_basis(axis):
@@ -148,8 +175,14 @@ def circle_init(points: np.ndarray, axis: np.ndarray, *, threshold: float, max_t
     return CylinderFrame(origin=c3 + radius * u, normal=-u, axis=axis, kappa=1.0 / radius), inliers
 
 
-def height_field_init(points: np.ndarray, *, seed=0, n_trim: int = 10) -> tuple[CylinderFrame, np.ndarray]:
+def height_field_init(points: np.ndarray, *, seed=0,
+                      n_trim: int = 10) -> tuple[CylinderFrame, np.ndarray, bool]:
     """Nearly flat specimen: cylinder frame from a robust quadratic height field.
+
+    The Hessian's dominant eigenvector is the arc direction and its
+    eigenvalue the initial (signed) curvature. When no curvature is
+    significant (a flat specimen), the axis is the footprint's short
+    direction: a strip bends along its length.
 
     Parameters
     ----------
@@ -165,6 +198,8 @@ def height_field_init(points: np.ndarray, *, seed=0, n_trim: int = 10) -> tuple[
     frame : CylinderFrame
     inliers : ndarray of shape (N,), bool
         The points kept by the trimming.
+    flat : bool
+        No curvature is significant (three standard errors).
     """
     c = np.median(points, axis=0)
     _, _, vt = np.linalg.svd(points - c, full_matrices=False)
@@ -192,6 +227,15 @@ def height_field_init(points: np.ndarray, *, seed=0, n_trim: int = 10) -> tuple[
     hess = np.array([[coef[3], coef[4]], [coef[4], coef[5]]]) / scale**2
     lam, vec = np.linalg.eigh(hess)
     i = int(np.argmax(np.abs(lam)))
+    res = h[keep] - basis[keep] @ coef
+    cov = np.linalg.pinv(basis[keep].T @ basis[keep]) * (res @ res) / max(keep.sum() - 6, 1)
+    se_curv = float(np.sqrt(max(cov[3, 3], cov[5, 5]))) / scale**2
+    flat = bool(abs(lam[i]) < 3 * se_curv)
+    if flat:
+        # no significant bending: a strip bends along its length, so take the
+        # footprint's long direction (vt[0]) as the arc and the short one as axis
+        vec, i = np.eye(2), 0
+        lam = np.array([hess[0, 0], hess[1, 1]])
     u0, v0 = uv[keep].mean(axis=0) / scale
     grad = np.array([coef[1] + coef[3] * u0 + coef[4] * v0, coef[2] + coef[4] * u0 + coef[5] * v0]) / scale
     h0 = float(np.array([1, u0, v0, 0.5 * u0 * u0, u0 * v0, 0.5 * v0 * v0]) @ coef)
@@ -202,12 +246,11 @@ def height_field_init(points: np.ndarray, *, seed=0, n_trim: int = 10) -> tuple[
     axis = axis_2d[0] * vt[0] + axis_2d[1] * vt[1]
     axis -= (axis @ normal) * normal
     axis /= np.linalg.norm(axis)
-    return CylinderFrame(origin=origin, normal=normal, axis=axis, kappa=float(lam[i])), keep
+    return CylinderFrame(origin=origin, normal=normal, axis=axis, kappa=float(lam[i])), keep, flat
 
 
 def initial_cylinder(points: np.ndarray, normals: np.ndarray, *, threshold: float,
-                     max_planarity: float = 0.3, flat_deg: float = 20.0,
-                     seed=0) -> tuple[CylinderFrame, np.ndarray, NormalScatter]:
+                     max_planarity: float = 0.3, flat_deg: float = 20.0, seed=0) -> InitialCylinder:
     """Initial cylinder of a downsampled specimen cloud with normals.
 
     Parameters
@@ -226,10 +269,7 @@ def initial_cylinder(points: np.ndarray, normals: np.ndarray, *, threshold: floa
 
     Returns
     -------
-    frame : CylinderFrame
-    inliers : ndarray of shape (N,), bool
-        Points the initial estimate rests on.
-    scatter : NormalScatter
+    InitialCylinder
 
     Raises
     ------
@@ -238,11 +278,11 @@ def initial_cylinder(points: np.ndarray, normals: np.ndarray, *, threshold: floa
     """
     scatter = normal_scatter(normals)
     if scatter.spread_deg < flat_deg:
-        frame, inliers = height_field_init(points, seed=seed)
-        return frame, inliers, scatter
+        frame, inliers, flat = height_field_init(points, seed=seed)
+        return InitialCylinder(frame, inliers, scatter, nearly_flat=True, flat=flat)
     if scatter.planarity > max_planarity:
         raise NotACylinderError(
             f"normals do not lie in a plane (sphere-like): eigenvalue ratio {scatter.planarity:.2f} "
             f"> {max_planarity:g}", planarity=scatter.planarity)
     frame, inliers = circle_init(points, scatter.axis, threshold=threshold, seed=seed)
-    return frame, inliers, scatter
+    return InitialCylinder(frame, inliers, scatter, nearly_flat=False, flat=False)

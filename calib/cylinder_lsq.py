@@ -15,14 +15,13 @@ kappa near 0 and an honest error bar, not a singular radius (cf. Lukacs,
 Marshall & Martin 1998, "Faithful least-squares fitting of spheres,
 cylinders, cones and tori").
 
-The fit runs :func:`scipy.optimize.least_squares` (trust region, robust
-``soft_l1`` loss, analytic Jacobian) over 5 parameters: a rotation vector
-of the frame (origin fixed), the shift ``rho`` of the origin along the
-normal, and kappa, in coordinates centred on the origin and scaled by the
-points' spread (so the problem is well conditioned at any position and
-size). The covariance is a cluster-robust sandwich over bins along the
-arc, so that spatially correlated residuals (the string-end grooves)
-widen the error bar instead of being counted as independent noise.
+:func:`refine` runs :func:`scipy.optimize.least_squares` (trust region,
+robust loss, analytic Jacobian) over 5 parameters: a rotation vector of the
+frame (origin fixed), the shift ``rho`` of the origin along the normal, and
+kappa, in coordinates centred on the origin and scaled by the points'
+spread (so the problem is well conditioned at any position and size).
+:mod:`calib.cylinder_irls` solves the same problem on a million points and
+gives the standard error of kappa.
 """
 
 from __future__ import annotations
@@ -35,8 +34,8 @@ from scipy.spatial.transform import Rotation
 
 from airmat.errors import ConvergenceError
 
-__all__ = ["CylinderFrame", "residuals", "residuals_and_jacobian", "refine", "polish", "RefineResult", "kappa_standard_error",
-           "arc_position", "loss_weights", "loss_slopes"]
+__all__ = ["CylinderFrame", "residuals", "residuals_and_jacobian", "arc_position", "refine",
+           "RefineResult"]
 
 
 @dataclass(frozen=True)
@@ -67,8 +66,8 @@ class CylinderFrame:
 
     def local(self, points: np.ndarray):
         """Arc-plane coordinates ``X`` (along the arc) and ``Z`` (along the normal), (N,) each, m."""
-        w = points - self.origin
-        return w @ self.tangent, w @ self.normal
+        t, n = self.tangent, self.normal
+        return points @ t - self.origin @ t, points @ n - self.origin @ n
 
 
 def _distance(X, Z, k, derivatives=False):
@@ -134,9 +133,13 @@ class _Problem:
     5x5 normal equations are one BLAS product.
     """
 
-    def __init__(self, points: np.ndarray, frame: CylinderFrame, scale: float):
-        self.o0, self.scale = frame.origin, scale
-        self.wT = np.ascontiguousarray(((points - frame.origin) / scale).T)
+    def __init__(self, points: np.ndarray, frame: CylinderFrame, scale: float | None = None):
+        self.o0 = frame.origin
+        self.wT = np.subtract(points.T, frame.origin[:, None], out=np.empty((3, len(points))))
+        if scale is None:  # RMS distance to the origin
+            scale = float(np.sqrt(np.einsum("ij,ij->", self.wT, self.wT) / max(len(points), 1))) or 1.0
+        self.scale = scale
+        self.wT /= scale
         self.n0, self.a0 = frame.normal, frame.axis
         self.t0 = np.cross(frame.axis, frame.normal)
         self.k0 = frame.kappa * scale
@@ -202,6 +205,7 @@ class RefineResult:
     converged: bool
     n_iter: int
     message: str
+    state: tuple | None = None  # (e, Jt, scale) at (or within tol of) the solution, from polish
 
 
 def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: str = "soft_l1",
@@ -232,167 +236,11 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     airmat.errors.ConvergenceError
         If the fit produced non-finite parameters.
     """
-    points = np.asarray(points, dtype=float)
-    scale = float(np.sqrt(np.mean(np.sum((points - frame.origin) ** 2, axis=1)))) or 1.0
-    prob = _Problem(points, frame, scale)
+    prob = _Problem(np.asarray(points, dtype=float), frame)
+    scale = prob.scale
     res = least_squares(prob.fun, prob.x0(), jac=prob.jac, loss=loss, f_scale=f_scale / scale,
                         method="trf", x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
     if not np.all(np.isfinite(res.x)):
         raise ConvergenceError("cylinder least squares diverged (non-finite parameters)", x=res.x)
     return RefineResult(frame=prob.frame(res.x), converged=bool(res.status > 0), n_iter=int(res.nfev),
                         message=str(res.message))
-
-
-def loss_weights(e: np.ndarray, f_scale: float, loss: str) -> np.ndarray:
-    """IRLS weights ``rho'(z)``, ``z = (e / f_scale)^2``, of a least_squares loss (same rho as scipy)."""
-    z = (np.asarray(e) / f_scale) ** 2
-    if loss == "linear":
-        return np.ones_like(z)
-    if loss == "soft_l1":
-        return 1.0 / np.sqrt(1.0 + z)
-    if loss == "huber":
-        return np.where(z <= 1.0, 1.0, 1.0 / np.sqrt(np.maximum(z, 1.0)))
-    if loss == "cauchy":
-        return 1.0 / (1.0 + z)
-    if loss == "arctan":
-        return 1.0 / (1.0 + z * z)
-    raise ValueError(f"unknown loss {loss!r}")
-
-
-def loss_slopes(e: np.ndarray, f_scale: float, loss: str) -> np.ndarray:
-    """Derivative of the influence function, ``psi'(e) = rho'(z) + 2 z rho''(z)``, of a loss."""
-    z = (np.asarray(e) / f_scale) ** 2
-    if loss == "linear":
-        return np.ones_like(z)
-    if loss == "soft_l1":
-        return (1.0 + z) ** -1.5
-    if loss == "huber":
-        return np.where(z <= 1.0, 1.0, 0.0)
-    if loss == "cauchy":
-        return (1.0 - z) / (1.0 + z) ** 2
-    if loss == "arctan":
-        return (1.0 - 3.0 * z * z) / (1.0 + z * z) ** 2
-    raise ValueError(f"unknown loss {loss!r}")
-
-
-def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: str = "soft_l1",
-           max_iter: int = 20, tol: float = 0.01) -> RefineResult:
-    """Robust Gauss-Newton (IRLS) iterations, for many points.
-
-    The same estimator as :func:`refine` (same loss, same residuals), solved
-    with 5x5 normal equations instead of a trust region on the full
-    Jacobian, so that each iteration costs one pass over the points (a
-    million of them). A small Levenberg damping keeps the direction a flat
-    specimen cannot determine (its axis in the plane) from wandering; steps
-    that raise the robust cost are halved.
-
-    Parameters
-    ----------
-    points : ndarray of shape (N, 3)
-        Points near the cylinder (m).
-    frame : CylinderFrame
-        Start.
-    f_scale, loss : float, str
-        Robust loss as in :func:`refine`.
-    max_iter : int
-        Most iterations.
-    tol : float
-        Converged when every parameter's step is below ``tol`` times its
-        standard error (so the answer no longer moves on the scale of its
-        own uncertainty).
-
-    Returns
-    -------
-    RefineResult
-    """
-    points = np.asarray(points, dtype=float)
-    scale = float(np.sqrt(np.mean(np.sum((points - frame.origin) ** 2, axis=1)))) or 1.0
-    f = f_scale / scale
-    prob = _Problem(points, frame, scale)
-    x = prob.x0()
-    e, Jt = prob.fun_jac(x)
-    n_eval, converged = 1, False
-    cost = _robust_cost(e, f, loss)
-    for _ in range(max_iter):
-        w = loss_weights(e, f, loss)
-        A = (Jt * w) @ Jt.T
-        A[np.diag_indices(5)] += 1e-14 * np.trace(A) + 1e-9 * np.diag(A)
-        A_inv = np.linalg.inv(A)
-        step = -A_inv @ (Jt @ (w * e))
-        if not np.all(np.isfinite(step)):
-            raise ConvergenceError("cylinder Gauss-Newton diverged (non-finite step)", step=step)
-        se = np.sqrt(np.abs(np.diag(A_inv)) * np.sum(w * e * e) / max(len(e) - 5, 1))
-        if np.all(np.abs(step) <= tol * se):  # negligible: take it and stop
-            x = x + step
-            converged = True
-            break
-        for _ in range(12):  # step halving
-            new_e = prob.fun(x + step)
-            n_eval += 1
-            new_cost = _robust_cost(new_e, f, loss)
-            if new_cost <= cost:
-                break
-            step = step / 2
-        if new_cost > cost:  # no descent along the Gauss-Newton direction: at the minimum
-            converged = True
-            break
-        x, cost = x + step, new_cost
-        e, Jt = prob.fun_jac(x)
-        n_eval += 1
-    msg = "converged" if converged else f"stopped after {max_iter} Gauss-Newton iterations"
-    return RefineResult(frame=prob.frame(x), converged=converged, n_iter=n_eval, message=msg)
-
-
-def _robust_cost(e, f, loss):
-    z = (e / f) ** 2
-    rho = {"linear": lambda z: z, "soft_l1": lambda z: 2 * (np.sqrt(1 + z) - 1),
-           "huber": lambda z: np.where(z <= 1, z, 2 * np.sqrt(np.maximum(z, 1)) - 1),
-           "cauchy": np.log1p, "arctan": np.arctan}[loss]
-    return float(np.sum(rho(z)))
-
-
-def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: float,
-                         loss: str = "soft_l1", n_clusters: int = 24) -> tuple[float, float]:
-    """Standard error of kappa (1/m): classical and cluster-robust sandwich.
-
-    The M-estimator covariance ``A^-1 B A^-1`` uses ``A = sum psi'(e) J J^T``
-    and ``B`` from the scores ``psi(e) J = w e J`` summed within
-    ``n_clusters`` equal-count bins of arc position
-    (across the whole width, where the string-end grooves correlate the
-    residuals). The classical estimate treats every point as independent.
-
-    Parameters
-    ----------
-    points : ndarray of shape (N, 3)
-        The inliers the fit used (m).
-    frame : CylinderFrame
-        The fitted cylinder.
-    f_scale, loss : float, str
-        The robust loss of the fit (m).
-    n_clusters : int
-        Bins along the arc.
-
-    Returns
-    -------
-    se_iid, se_cluster : float
-        Standard errors of kappa (1/m).
-    """
-    points = np.asarray(points, dtype=float)
-    scale = float(np.sqrt(np.mean(np.sum((points - frame.origin) ** 2, axis=1)))) or 1.0
-    prob = _Problem(points, frame, scale)
-    e, Jt = prob.fun_jac(prob.x0())
-    w = loss_weights(e, f_scale / scale, loss)
-    slope = loss_slopes(e, f_scale / scale, loss)
-    A_inv = np.linalg.pinv((Jt * slope) @ Jt.T, rcond=1e-12, hermitian=True)
-    p, n = Jt.shape
-    score = Jt * (w * e)
-    B_iid = score @ score.T * n / max(n - p, 1)
-    s = arc_position(points, frame)
-    g = min(n_clusters, max(n // 50, 2))
-    edges = np.quantile(s, np.linspace(0, 1, g + 1)[1:-1])
-    bins = np.searchsorted(edges, s)
-    G = np.stack([np.bincount(bins, score[j], g) for j in range(p)], axis=1)
-    B_cl = G.T @ G * g / (g - 1) * (n - 1) / max(n - p, 1)
-    var_iid = (A_inv @ B_iid @ A_inv)[4, 4]
-    var_cl = (A_inv @ B_cl @ A_inv)[4, 4]
-    return float(np.sqrt(max(var_iid, 0.0)) / scale), float(np.sqrt(max(var_cl, 0.0)) / scale)

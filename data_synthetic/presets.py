@@ -92,12 +92,12 @@ def _vault1():
 
 
 def _saddle():
-    return profile_surface(lambda x: np.full_like(x, 3.9), 0.30, lambda x: 1.1 * x**2 / 2,
+    return profile_surface(lambda x: np.full_like(x, 3.9), 0.22, lambda x: 1.4 * x**2 / 2,
                            x_half=0.55, s_half=0.50, spacing=0.004, name="saddle")
 
 
 def _dome():
-    return dome_surface((0.36, 0.32, 0.30), polar_max=np.radians(105), subdivisions=6, name="dome")
+    return dome_surface((0.45, 0.40, 0.38), polar_max=np.radians(105), subdivisions=6, name="dome")
 
 
 def _vault2():
@@ -106,8 +106,8 @@ def _vault2():
 
 
 def _roof():
-    return profile_surface(lambda x: 3.9 + 1.9 * np.sin(np.pi * x / 1.3), 0.35,
-                           lambda x: 0.08 * np.cos(np.pi * x / 0.9), x_half=1.6, s_half=1.05,
+    return profile_surface(lambda x: 3.3 + 1.4 * np.sin(np.pi * x / 1.6), 0.35,
+                           lambda x: 0.04 * np.cos(np.pi * x), x_half=1.6, s_half=1.05,
                            spacing=0.01, name="roof")
 
 

@@ -43,7 +43,7 @@ class MattressField:
         ``direction[:, i]`` is a unit vector on Ω along the principal
         direction of family i (a line: its sign is arbitrary).
     weight : ndarray of shape (n,)
-        Reliability of the directions in [0, 1] (anisotropy |κ1 - κ2|
+        Reliability of the directions in [0, 1] (the anisotropy ||κ1| - |κ2||
         normalised); near 0 at umbilics, where directions mean nothing.
     """
 
@@ -67,7 +67,7 @@ class MattressField:
     def _interp(self) -> LinearNDInterpolator:
         d = self.direction
         doubled = np.stack([d[..., 0] ** 2 - d[..., 1] ** 2, 2 * d[..., 0] * d[..., 1]], axis=-1)
-        values = np.concatenate([self.kappa, doubled.reshape(len(self.uv), 4)], axis=1)
+        values = np.concatenate([self.kappa, doubled.reshape(len(self.uv), 4), self.weight[:, None]], axis=1)
         return LinearNDInterpolator(self.uv, values)
 
     def _sample(self, pts: np.ndarray) -> np.ndarray:
@@ -89,6 +89,10 @@ class MattressField:
         s = self._sample(pts)[:, 2 + 2 * family: 4 + 2 * family]
         half = 0.5 * np.arctan2(s[:, 1], s[:, 0])
         return np.stack([np.cos(half), np.sin(half)], axis=1)
+
+    def weight_at(self, pts) -> np.ndarray:
+        """Direction reliability (k,) in [0, 1] at points (k, 2) on Ω (m)."""
+        return self._sample(pts)[:, 6]
 
     def contains(self, pts, margin: float = 0.0) -> np.ndarray:
         """Boolean mask (k,) of points (k, 2) inside Ω shrunk by ``margin`` (m)."""

@@ -10,6 +10,7 @@ SI units inside (m, 1/m); files in mm.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import logging
 import time
 from dataclasses import dataclass, field
@@ -59,8 +60,9 @@ class DesignParams:
         Line integration step (m); default min(μ₂ / 10, 10 mm).
     spacing : float
         Mesh spacing of Ω for the relaxation (m).
-    k_a1, k_a2, k_a3 : float
-        U_A weights (edge lengths, closest point, smoothing), design.relax.
+    k_a1, k_a2, k_a3 : float or None
+        U_A weights (edge lengths, closest point, smoothing); None: the defaults of
+        :func:`design.surface.approximate_surface`.
     kappa_min : float
         |κ| (1/m) below which a family needs no string.
     weight_min : float
@@ -75,12 +77,18 @@ class DesignParams:
     margin: float = 0.03
     step: float | None = None
     spacing: float = 0.02
-    k_a1: float = 1.0
-    k_a2: float = 0.05
-    k_a3: float = 0.02
+    k_a1: float | None = None
+    k_a2: float | None = None
+    k_a3: float | None = None
     kappa_min: float = 0.25
-    weight_min: float = 0.02
+    weight_min: float = 0.0
     n_kappa_points: int = 10
+
+    def weights(self) -> dict:
+        """The U_A weights in use: given ones, else the surface side's defaults."""
+        defaults = inspect.signature(approximate_surface).parameters
+        return {k: float(getattr(self, k) if getattr(self, k) is not None else defaults[k].default)
+                for k in ("k_a1", "k_a2", "k_a3")}
 
     def stripe_params(self, L: float) -> StripeParams:
         """The stripe tracer's parameters, with L resolved."""
@@ -91,8 +99,8 @@ class DesignParams:
         """The parameters as written to design.json (mm, 1/m)."""
         sp, mm = self.stripe_params(L), _mm
         return {"L_mm": mm(L), "mu1_mm": mm(self.mu1), "mu2_mm": mm(self.mu2), "margin_mm": mm(self.margin),
-                "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), "k_a1": self.k_a1,
-                "k_a2": self.k_a2, "k_a3": self.k_a3, "kappa_min_per_m": self.kappa_min,
+                "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), **self.weights(),
+                "kappa_min_per_m": self.kappa_min,
                 "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points)}
 
 
@@ -170,8 +178,8 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     sp = params.stripe_params(L)
     check_stripe_params(sp, mattress.width, mattress.height)
     reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))
-    approx = approximate_surface(target, mattress, spacing=params.spacing, k_a1=params.k_a1, k_a2=params.k_a2,
-                                 k_a3=params.k_a3, kappa_max=reach, progress=progress)
+    approx = approximate_surface(target, mattress, spacing=params.spacing, **params.weights(), kappa_max=reach,
+                                 progress=progress)
     timings = dict(approx.timings)
     t = time.perf_counter()
     mfield = mattress_field(approx)

@@ -5,12 +5,22 @@ The mesh M (Ω's triangulation) starts flat on S and minimises
     U_A = Σ_edges ½ k_A1 (ε − ε0)²  +  Σ_vertices ½ k_A2 ‖x − x_closest‖²  +  Σ_vertices ½ k_A3 ‖x − x_avg‖²
 
 (A1: edges keep their Ω length ε0; A2: vertices move to their closest point
-on S; A3: vertices move toward their neighbours' average). The solver is a
+on S; A3: vertices move toward their neighbours' average, with the cotangent
+weights of flat Ω, so that flat Ω is a rest state of A3). The solver is a
 local-global (projective dynamics) iteration: the local step projects each
 edge onto its rest length and each vertex onto S (one BVH query for all
 vertices), the global step solves one linear system whose matrix
 ``k_A1 AᵀA + k_A2 I + k_A3 LᵀL`` never changes, so it is factorised once.
-Every iteration decreases U_A. Lengths in metres.
+Anderson acceleration (design.anderson) speeds it up; an accelerated step
+that raises U_A is replaced by the plain step, so U_A never increases.
+Wrapping a fine flat mesh around a strongly curved S in one go can crumple
+it, so coarser grids of Ω are solved first, each starting the next.
+
+Stopping rule: the largest unbalanced force on a vertex, |∂U_A/∂x_i|, below
+``tol`` × k_A1 × h (h the mean edge length): the pull of one edge strained by
+``tol``. On a triangulated target the force cannot reach 0 (the closest-point
+map is only piecewise smooth), so an energy that stops decreasing also ends
+the iteration, and the message says so. Lengths in metres.
 
 Resolution independence: the A1 term per unit area does not depend on the
 mesh spacing h, the per-vertex A2 and A3 terms grow as 1/h². The weights
@@ -32,6 +42,7 @@ from scipy.sparse.linalg import factorized
 from airmat.errors import ConvergenceError
 from airmat.progress import progress as progress_bar
 from airmat.progress import progress_enabled
+from design.anderson import AndersonAcceleration
 from design.closest_point import MeshProjector
 from design.placement import apply_placement, auto_placement, placement_matrix
 
@@ -95,6 +106,12 @@ def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan")
     boundary neighbours (averaging inner neighbours would pull the rim inward).
     Only vertices where the term vanishes on the flat Ω get a row (this drops the
     corners): the flat mattress is a rest state of U_A3.
+
+    ``weights="cotan"`` (default) weighs an interior vertex's neighbours with the
+    cotangent weights of flat Ω (on the chequerboard grid: its four axis neighbours
+    equally), which also makes ``LᵀL x`` nearly vanish on surfaces of constant curvature away
+    from the rim, so A3 smooths without biasing curvature there; ``"uniform"``
+    averages all neighbours (on the 4-8 grid that biases curvature in a chequerboard).
     """
     n = len(uv)
     e = mesh_edges(faces)
@@ -166,31 +183,6 @@ class _Problem:
         rhs = k1 * (self.inc.T @ d) + k2 * cp
         g = np.column_stack([self.solve(np.ascontiguousarray(rhs[:, c])) for c in range(3)])
         return g, rhs - self.gmat @ x
-
-
-class _Anderson:
-    """Anderson acceleration (type II, window m) of the fixed-point map x -> G(x) (Peng et al. 2018)."""
-
-    def __init__(self, m: int):
-        self.m = m
-        self.reset()
-
-    def reset(self):
-        self.df, self.dg, self.prev = [], [], None
-
-    def propose(self, x, g):
-        """Next iterate from the current x and g = G(x), both (n, 3)."""
-        f = (g - x).ravel()
-        if self.prev is not None and self.m > 0:
-            self.df.append(f - self.prev[0])
-            self.dg.append(g.ravel() - self.prev[1])
-            del self.df[:-self.m], self.dg[:-self.m]
-        self.prev = (f, g.ravel())
-        if not self.df:
-            return g
-        dfm = np.column_stack(self.df)
-        theta = np.linalg.lstsq(dfm, f, rcond=None)[0]
-        return (g.ravel() - np.column_stack(self.dg) @ theta).reshape(g.shape)
 
 
 def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a2: float = 0.2,
@@ -284,7 +276,7 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     msg = {"force": f"converged in {it} iterations (largest force {residual:.2g} k_A1·h)",
            "stall": f"converged in {it} iterations: U_A stationary (changed < {stall:g} in "
                     f"{STALL_WINDOW} iterations) with the largest force {residual:.2g} k_A1·h above "
-                    f"tol {tol:g} (the target's facets limit it: a finer target mesh helps)",
+                    f"tol {tol:g} (a coarse target mesh or folds in Ŝ keep it from 0)",
            "max_iter": f"not converged after {it} iterations (largest force {residual:.2g} k_A1·h, "
                        f"tol {tol:g})"}[status]
     log.info("U_A relaxation %s, %.2f s; distance to S mean %.2f mm, max %.2f mm", msg,
@@ -324,14 +316,15 @@ def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, an
     for level in range(levels, 0, -1):
         cuv, cfaces = triangulate_mattress(mattress, spacing=spacing * 2**level)
         x = (apply_placement(mat, cuv) if prev_uv is None
-             else LinearNDInterpolator(prev_uv, prev_x)(cuv))
+             else projector.closest(LinearNDInterpolator(prev_uv, prev_x)(cuv)).points)
         prob = _Problem(cuv, cfaces, projector, *k)
         x, it, status, residual, _ = _iterate(prob, x, tol=COARSE_TOL, stall=stall, max_iter=max_iter,
                                               window=anderson, bar=None)
         log.debug("coarse level %d (%.0f mm): %s after %d iterations, force %.2g", level,
                   1e3 * prob.h, status, it, residual)
         prev_uv, prev_x = cuv, x
-    return LinearNDInterpolator(prev_uv, prev_x)(uv)
+    # the coarse grid is a polyhedron: put the fine vertices back onto S
+    return projector.closest(LinearNDInterpolator(prev_uv, prev_x)(uv)).points
 
 
 def _iterate(prob: _Problem, x, *, tol, stall, max_iter, window, bar):
@@ -339,7 +332,7 @@ def _iterate(prob: _Problem, x, *, tol, stall, max_iter, window, bar):
 
     Returns (x, n_iter, status, residual, history); status is "force", "stall" or "max_iter".
     """
-    acc = _Anderson(window)
+    acc = AndersonAcceleration(window)
     cp = prob.project(x)
     e = e0 = prob.energy(x, cp)["U_A"]
     g, force = prob.global_step(x, cp)
@@ -353,10 +346,10 @@ def _iterate(prob: _Problem, x, *, tol, stall, max_iter, window, bar):
         if len(energies) > STALL_WINDOW and energies[-STALL_WINDOW - 1] - e <= stall * e:
             status = "stall"
             break
-        x_new = acc.propose(x, g)
         if not np.isfinite(g).all():
             raise ConvergenceError(f"U_A relaxation diverged at iteration {it} (non-finite positions)",
                                    n_iter=it)
+        x_new = acc.propose(x, g)
         cp_new = prob.project(x_new)
         e_new = prob.energy(x_new, cp_new)["U_A"]
         if e_new > e and x_new is not g:  # the accelerated step went uphill: take the plain one

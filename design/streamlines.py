@@ -30,7 +30,6 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import LinearNDInterpolator
 from scipy.ndimage import map_coordinates
 from scipy.spatial import cKDTree
 
@@ -80,11 +79,7 @@ def sample_field_grid(mfield, family: int, *, spacing: float) -> FieldGrid:
     kappa = mfield.kappa_at(family, pts)
     d = mfield.direction_at(family, pts)
     c2, s2 = d[:, 0] ** 2 - d[:, 1] ** 2, 2.0 * d[:, 0] * d[:, 1]
-    eps = 1e-9 * max(W, H)
-    # reuse the field's Delaunay triangulation (and its cached barycentric transforms) when it has one
-    tri = getattr(getattr(mfield, "_interp", None), "tri", None)
-    weight = LinearNDInterpolator(mfield.uv if tri is None else tri, mfield.weight)(
-        np.clip(pts, eps, [W - eps, H - eps]))
+    weight = mfield.weight_at(pts)
     values = np.stack([kappa, c2, s2, weight]).reshape(4, nv, nu)
     return FieldGrid(W, H, W / (nu - 1), H / (nv - 1), values)
 

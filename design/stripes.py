@@ -62,7 +62,7 @@ class StripeParams:
     margin: float = 0.03
     step: float | None = None
     kappa_min: float = 0.25
-    weight_min: float = 0.02
+    weight_min: float = 0.0
 
     @property
     def step_used(self) -> float:

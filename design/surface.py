@@ -66,7 +66,8 @@ class ApproxSurface:
 
 def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 0.02, placement=None,
                         k_a1: float = 1.0, k_a2: float = 0.2, k_a3: float = 0.02, tol: float = 1e-4,
-                        max_iter: int = 1000, stall: float = 1e-7, sigma_band=(0.9, 1.1), kappa_max: float | None = None,
+                        max_iter: int = 1000, stall: float = 1e-7, sigma_band=(0.9, 1.1),
+                        kappa_max: float | None = None,
                         curvature_radius: float = 2.5, progress: bool = True,
                         strict: bool = False) -> ApproxSurface:
     """Find Ŝ for ``target`` on ``mattress`` and its principal curvatures (paper §3.2).
@@ -82,10 +83,10 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
         Start placement of Ω (design.placement); default: centred on S's principal frame.
     k_a1, k_a2, k_a3 : float, default 1.0, 0.2, 0.02
         U_A weights (design.relax.relax_to_target; k_a2, k_a3 at 20 mm spacing).
-    tol, max_iter : float, int
-        Relaxation stopping rule.
-    sigma_band : (float, float), default (0.9, 1.02)
-        Tolerated edge length ratio Ŝ/Ω.
+    tol, stall, max_iter : float, float, int
+        Relaxation stopping rule (design.relax.relax_to_target).
+    sigma_band : (float, float), default (0.9, 1.1)
+        Tolerated edge length ratio Ŝ/Ω (design.constructibility).
     kappa_max : float, optional
         Reachable curvature (1/m); default the paper's calibration (15.66 1/m).
     curvature_radius : float, default 2.5

@@ -49,6 +49,9 @@ class Target:
         the mattress's top face is placed on the side these normals point to.
     name : str
         For messages and outputs.
+    units : str, default "m"
+        The units the mesh was read in (its coordinates here are always metres);
+        used to suggest the right units when the size does not fit the mattress.
 
     Raises
     ------
@@ -60,6 +63,7 @@ class Target:
     vertices: np.ndarray
     faces: np.ndarray
     name: str = "target"
+    units: str = "m"
 
     def __post_init__(self):
         v = np.asarray(self.vertices, dtype=float)
@@ -176,9 +180,9 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         mesh = trimesh.Trimesh(vertices, faces, process=False)
         mesh.merge_vertices()
         target = Target(np.asarray(mesh.vertices) * UNITS[units], np.asarray(mesh.faces),
-                        name=name or path.stem)
+                        name=name or path.stem, units=units)
         if mattress is not None:
-            check_scale(target, mattress, units=units)
+            check_scale(target, mattress)
     except InputError as err:
         raise err.with_path(path)
     log.info("target %s: %d vertices, %d faces, bounding diagonal %.0f mm",
@@ -186,7 +190,7 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     return target
 
 
-def check_scale(target: Target, mattress, *, units: str = "mm") -> None:
+def check_scale(target: Target, mattress) -> None:
     """Refuse a target whose size does not fit the mattress: a units slip.
 
     The target's bounding diagonal must be between 0.2 and 50 times the
@@ -195,9 +199,8 @@ def check_scale(target: Target, mattress, *, units: str = "mm") -> None:
     Parameters
     ----------
     target : Target
+        Its ``units`` (those it was read in) let the message suggest the right ones.
     mattress : design.mattress.Mattress
-    units : str, default "mm"
-        The units the target was read in, to suggest the right ones.
 
     Raises
     ------
@@ -208,6 +211,7 @@ def check_scale(target: Target, mattress, *, units: str = "mm") -> None:
     ratio = target.bbox_diagonal / mattress.diagonal
     if SCALE_RANGE[0] <= ratio <= SCALE_RANGE[1]:
         return
+    units = target.units
     scale = UNITS.get(units, 1.0)
     # the units under which the target would be about as large as the mattress (ratio ~ 1.5)
     guess = min(UNITS, key=lambda u: abs(math.log(ratio * UNITS[u] / scale / 1.5)))

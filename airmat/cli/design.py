@@ -33,9 +33,9 @@ def add_parser(sub, parents):
     p.add_argument("--step-mm", type=float, default=None, help="line integration step (default min(mu2/10, 10))")
     p.add_argument("--kappa-min-per-m", type=float, default=0.25,
                    help="|curvature| below which no string is needed (default 0.25 1/m)")
-    p.add_argument("--weight-min", type=float, default=0.02,
-                   help="lines stop where the principal-direction weight is below this (umbilics; "
-                        "0 traces through them; default 0.02)")
+    p.add_argument("--weight-min", type=float, default=0.0,
+                   help="lines stop where the principal-direction weight is below this (umbilics, where "
+                        "any direction bends alike; default 0: trace through the smoothed line field)")
     p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (default: the relaxation's)")
     p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (default: the relaxation's)")
     p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Springs", "Model", "spring_terms", "volume_terms", "smoothing_matrix",
+__all__ = ["Springs", "Model", "spring_profile", "spring_terms", "volume_terms", "smoothing_matrix",
            "energy", "energy_and_gradient", "hessian_blocks", "pressure_forces"]
 
 
@@ -44,19 +44,24 @@ class Springs:
     rest : ndarray of shape (s,)
         Rest length r0 (m).
     stiffness : ndarray of shape (s,)
-        Spring constant k (N/m).
-    tension_only : bool
-        Clamp springs: no force while shorter than ``rest``.
+        Spring constant k (N/m) in tension.
+    compression : float
+        Stiffness ratio in compression: 1 for a linear spring, 0 for a
+        string (tension-only, the ClampLength goal).
     name : str
         Label of the term (``"B1"``, ``"B3"``, ``"B4"``).
+    smooth : float or ndarray of shape (s,)
+        Width (m) of the smooth switch between compression and tension (see
+        :func:`spring_profile`); 0 for a sharp switch.
     """
 
     idx: np.ndarray
     coef: np.ndarray
     rest: np.ndarray
     stiffness: np.ndarray
-    tension_only: bool
+    compression: float
     name: str
+    smooth: object = 0.0
 
     def lengths(self, x: np.ndarray) -> np.ndarray:
         """Current length |r| (m) of every spring at positions ``x`` (n, 3)."""
@@ -88,15 +93,43 @@ class Model:
     smoothing: sp.csr_matrix
 
 
+def spring_profile(stretch: np.ndarray, width, compression: float) -> tuple:
+    """Energy/k, force/k and stiffness/k of a spring softer in compression, with a smooth switch.
+
+    The force is ``f(s) = s`` for ``s >= w`` and ``c s`` for ``s <= -w``
+    (``c`` the compression ratio: 0 for a string that goes slack, 1 for a
+    plain linear spring), blended by a quadratic over ``|s| < w`` so that
+    the force and its derivative are continuous: Newton's method does not
+    cycle on springs switching between slack and taut. ``w = 0`` gives the
+    sharp switch (``u_m`` of Equation 5 for ``c = 0``).
+    """
+    c = float(compression)
+    w = np.broadcast_to(np.asarray(width, float), stretch.shape)
+    if c == 1.0:
+        return 0.5 * stretch ** 2, stretch, np.ones_like(stretch)
+    wsafe = np.maximum(w, 1e-300)
+    mid = np.abs(stretch) < w
+    taut = stretch >= w
+    q = (stretch + w) / (2 * wsafe)                      # 0 .. 1 across the blend
+    f = np.where(taut, stretch, np.where(mid, c * stretch + (1 - c) * w * q ** 2, c * stretch))
+    df = np.where(taut, 1.0, np.where(mid, c + (1 - c) * q, c))
+    e = np.where(taut, 0.5 * stretch ** 2 + (1 - c) * w ** 2 / 6.0,
+                 0.5 * c * stretch ** 2 + np.where(mid, (1 - c) * (stretch + w) ** 3 / (12 * wsafe), 0.0))
+    return e, f, df
+
+
 def spring_terms(x: np.ndarray, s: Springs, *, gradient: bool = True, hessian: bool = False,
                  project: bool = True):
-    """Energy, gradient and PSD-projected Hessian blocks of a spring group.
+    """Energy, gradient and Hessian blocks of a spring group.
 
     Parameters
     ----------
     x : ndarray of shape (n, 3)
         Vertex positions (m).
     s : Springs
+    project : bool
+        Clamp each spring's transverse stiffness ``psi'(|r|)/|r|`` at 0, which
+        makes every element block positive semi-definite.
 
     Returns
     -------
@@ -110,26 +143,27 @@ def spring_terms(x: np.ndarray, s: Springs, *, gradient: bool = True, hessian: b
     r = np.einsum("sk,skc->sc", s.coef, x[s.idx])
     length = np.linalg.norm(r, axis=1)
     stretch = length - s.rest
-    k = s.stiffness * (stretch > 0) if s.tension_only else s.stiffness
-    e = 0.5 * float(np.sum(k * stretch ** 2))
+    e_k, f_k, df_k = spring_profile(stretch, s.smooth, s.compression)
+    e = float(np.sum(s.stiffness * e_k))
     if not (gradient or hessian):
         return e, None, None
     rhat = r / np.maximum(length, 1e-300)[:, None]
     grad = None
     if gradient:
-        g_r = (k * stretch)[:, None] * rhat
+        g_r = (s.stiffness * f_k)[:, None] * rhat
         contrib = s.coef[:, :, None] * g_r[:, None, :]
         grad = np.column_stack([np.bincount(s.idx.ravel(), weights=contrib[..., c].ravel(),
                                             minlength=len(x)) for c in range(3)])
     blocks = None
     if hessian:
-        geo = stretch / np.maximum(length, 1e-300)
+        geo = f_k / np.maximum(length, 1e-300)
         if project:                               # PSD: no negative transverse stiffness
             geo = np.clip(geo, 0.0, None)
-        # a clamp spring exactly at its rest length (a pin at the start) counts as taut
-        kh = s.stiffness * (stretch >= 0) if s.tension_only else s.stiffness
+        dfh = df_k
+        if s.compression < 1 and np.all(np.asarray(s.smooth) == 0):
+            dfh = np.where(stretch >= 0, 1.0, s.compression)   # a sharp switch exactly at rest counts as taut
         rr = rhat[:, :, None] * rhat[:, None, :]
-        h_r = kh[:, None, None] * (rr + geo[:, None, None] * (np.eye(3) - rr))
+        h_r = s.stiffness[:, None, None] * (dfh[:, None, None] * rr + geo[:, None, None] * (np.eye(3) - rr))
         cc = s.coef[:, :, None] * s.coef[:, None, :]
         blocks = cc[:, :, :, None, None] * h_r[:, None, None, :, :]
     return e, grad, blocks

@@ -48,6 +48,9 @@ class Parameters:
         c1, c3, c4, c5 (see the module docstring).
     pin_every : int
         A loop pin at every ``pin_every``-th grid point (1: every vertex).
+    clamp_width : float
+        Smoothed slack/taut onset of the pins and strings, relative to their
+        rest length (a quarter of their strain under load).
     """
 
     pressure: float = 2000.0
@@ -57,6 +60,8 @@ class Parameters:
     strings: float = 1e3
     smoothing: float = 1e-2
     pin_every: int = 1
+    clamp_width: float = 2.5e-4
+    compression: float = 1e-2
 
 
 def stiffnesses(mesh: MattressMesh, params: Parameters) -> dict:
@@ -86,11 +91,13 @@ def build_model(mesh: MattressMesh, strings: StringSet | None, params: Parameter
     e = mesh.edges
     rest = np.linalg.norm(mesh.vertices[e[:, 1]] - mesh.vertices[e[:, 0]], axis=1)
     groups = [Springs(idx=e, coef=np.tile([-1.0, 1.0], (len(e), 1)), rest=rest,
-                      stiffness=np.full(len(e), k["k1"]), tension_only=False, name="B1"),
-              internal_strings(mesh, stiffness=k["k3"], every=params.pin_every)]
+                      stiffness=np.full(len(e), k["k1"]), compression=params.compression, name="B1",
+                      smooth=params.clamp_width * rest),
+              internal_strings(mesh, stiffness=k["k3"], every=params.pin_every, smooth=params.clamp_width)]
     if strings is not None and len(strings):
         groups.append(attach_strings(mesh, strings,
-                                     stiffness=k["EA4"] / np.maximum(strings.rest, mesh.thickness)))
+                                     stiffness=k["EA4"] / np.maximum(strings.rest, mesh.thickness),
+                                     smooth=params.clamp_width))
     q = smoothing_matrix(mesh.grid_faces, mesh.top, mesh.bottom, mesh.n_vertices, k["k5"])
     return Model(n_vertices=mesh.n_vertices, faces=mesh.faces, springs=tuple(groups),
                  pressure=float(params.pressure), smoothing=q)

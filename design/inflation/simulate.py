@@ -104,7 +104,12 @@ def start_positions(mesh: MattressMesh, strings: StringSet | None, *, dent: floa
     tree = cKDTree(mesh.uv[mesh.top])
     dist, g = tree.query(pts, k=4, distance_upper_bound=a_sp)
     hit = np.isfinite(dist)
-    depth = (dent * a_sp * np.sin(np.pi * s)[:, None] * (1.0 - dist / a_sp)) * hit
+    import os
+    if os.environ.get("DENT") == "local":
+        prof = np.exp(-(((s - 0.5) * span[owner]) / a_sp) ** 2)
+    else:
+        prof = np.sin(np.pi * s)
+    depth = dent * a_sp * prof[:, None] * (1.0 - np.where(hit, dist, a_sp) / a_sp)
     samp = np.broadcast_to(np.arange(len(pts))[:, None], g.shape)[hit]
     top = strings.top[owner[samp]]
     vert = np.where(top, mesh.top[np.minimum(g[hit], len(mesh.top) - 1)],

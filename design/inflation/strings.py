@@ -78,7 +78,8 @@ def check_resolution(strings: StringSet, resolution: float, *, per_string: float
                          resolution=resolution, span=span[i])
 
 
-def attach_strings(mesh: MattressMesh, strings: StringSet, *, stiffness: np.ndarray) -> Springs:
+def attach_strings(mesh: MattressMesh, strings: StringSet, *, stiffness: np.ndarray,
+                   smooth: float = 0.0) -> Springs:
     """The external strings as clamp springs on the faces of ``mesh`` (term B4).
 
     Parameters
@@ -87,6 +88,8 @@ def attach_strings(mesh: MattressMesh, strings: StringSet, *, stiffness: np.ndar
     strings : StringSet
     stiffness : ndarray of shape (k,)
         Spring constant of each string (N/m).
+    smooth : float
+        Width of the smoothed slack/taut onset, relative to the rest length.
 
     Returns
     -------
@@ -115,10 +118,10 @@ def attach_strings(mesh: MattressMesh, strings: StringSet, *, stiffness: np.ndar
     coef = np.concatenate([bary[:k], -bary[k:]], axis=1)
     return Springs(idx=idx, coef=coef, rest=np.asarray(strings.rest, float),
                    stiffness=np.broadcast_to(np.asarray(stiffness, float), (k,)).copy(),
-                   tension_only=True, name="B4")
+                   compression=0.0, name="B4", smooth=smooth * np.maximum(strings.rest, mesh.thickness))
 
 
-def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1) -> Springs:
+def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1, smooth: float = 0.0) -> Springs:
     """Loop pins (term B3): tension-only strings of length d joining top[g] and bottom[g].
 
     Parameters
@@ -128,6 +131,8 @@ def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1) ->
         Spring constant of each pin (N/m).
     every : int
         Keep every ``every``-th grid point along u and v (1: all of them).
+    smooth : float
+        Width of the smoothed slack/taut onset, relative to d.
     """
     nx, ny = mesh.grid_shape
     i, j = np.meshgrid(np.arange(0, nx, every), np.arange(0, ny, every), indexing="xy")
@@ -135,4 +140,4 @@ def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1) ->
     idx = np.column_stack([mesh.top[g], mesh.bottom[g]])
     return Springs(idx=idx, coef=np.tile([1.0, -1.0], (len(g), 1)),
                    rest=np.full(len(g), mesh.thickness), stiffness=np.full(len(g), float(stiffness)),
-                   tension_only=True, name="B3")
+                   compression=0.0, name="B3", smooth=smooth * mesh.thickness)

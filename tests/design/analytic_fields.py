@@ -1,10 +1,18 @@
-"""Analytic MattressFields on a regular grid over Ω, the ground truth of the pattern-side tests."""
+"""Analytic MattressFields on a regular grid over Ω, the ground truth of the pattern-side tests.
+
+Fields that are constant or linear on Ω are represented exactly by the linear
+interpolation of MattressField at any grid spacing, so they use a coarse grid
+(fewer triangles to build); the concentric field, which is not, a fine one.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from design.field import MattressField
+
+#: grid spacing (m) of the fields that are constant or linear on Ω
+COARSE = 0.05
 
 
 def grid_uv(width, height, spacing=0.02):
@@ -20,7 +28,7 @@ def frame(angle):
     return np.stack([np.stack([c, s], -1), np.stack([-s, c], -1)], axis=1)
 
 
-def cylinder_field(width=0.83, height=0.74, kappa=-4.0, angle=0.0, spacing=0.02):
+def cylinder_field(width=0.83, height=0.74, kappa=-4.0, angle=0.0, spacing=COARSE):
     """Cylinder: k1 = kappa (1/m) bending along the direction ``angle``, k2 = 0."""
     uv = grid_uv(width, height, spacing)
     n = len(uv)
@@ -28,7 +36,7 @@ def cylinder_field(width=0.83, height=0.74, kappa=-4.0, angle=0.0, spacing=0.02)
     return MattressField(width, height, uv, k, frame(np.full(n, angle)), np.ones(n))
 
 
-def linear_cylinder_field(width=0.83, height=0.74, k0=-2.0, slope=-6.0, spacing=0.02):
+def linear_cylinder_field(width=0.83, height=0.74, k0=-2.0, slope=-6.0, spacing=COARSE):
     """Cone-like: k1 along u, varying linearly with v: k1 = k0 + slope * v (1/m); k2 = 0."""
     uv = grid_uv(width, height, spacing)
     n = len(uv)
@@ -36,7 +44,7 @@ def linear_cylinder_field(width=0.83, height=0.74, k0=-2.0, slope=-6.0, spacing=
     return MattressField(width, height, uv, k, frame(np.zeros(n)), np.ones(n))
 
 
-def sphere_like_field(width=0.83, height=0.74, kappa=3.0, spacing=0.02):
+def sphere_like_field(width=0.83, height=0.74, kappa=3.0, spacing=COARSE):
     """Both families kappa (1/m) with directions along u and v (weight 1)."""
     uv = grid_uv(width, height, spacing)
     n = len(uv)
@@ -56,7 +64,7 @@ def concentric_field(width=2.6, height=1.6, k1=3.0, k2=1.0, spacing=0.02):
     return MattressField(width, height, uv, k, frame(angle), weight)
 
 
-def saddle_field(width=0.83, height=0.74, kappa=3.0, angle=np.pi / 4, spacing=0.02):
+def saddle_field(width=0.83, height=0.74, kappa=3.0, angle=np.pi / 4, spacing=COARSE):
     """Saddle-like: k1 = +kappa along ``angle``, k2 = -0.6 kappa across it."""
     uv = grid_uv(width, height, spacing)
     n = len(uv)

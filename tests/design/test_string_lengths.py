@@ -50,7 +50,7 @@ def test_point_calibration_inverts_equation_3():
 
 def test_representative_kappa_is_the_mean_of_n_equally_spaced_samples():
     # k1 = -2 - 4 u along u: the mean of equally spaced samples (ends included) is the midpoint value
-    uv = grid_uv(0.83, 0.74)
+    uv = grid_uv(0.83, 0.74, 0.05)
     n = len(uv)
     k = np.column_stack([-2.0 - 4.0 * uv[:, 0], np.zeros(n)])
     mf = MattressField(0.83, 0.74, uv, k, frame(np.zeros(n)), np.ones(n))

@@ -145,8 +145,8 @@ def test_same_input_gives_identical_dashes():
         np.testing.assert_array_equal(da.polyline, db.polyline)
 
 
-def test_ids_number_lines_and_dashes_from_one():
-    s = trace_stripes(cylinder_field())
+def test_ids_number_lines_and_dashes_from_one(cylinder):
+    s = cylinder
     ids = [d.id for d in s.dashes]
     assert len(set(ids)) == len(ids)
     assert ids[0] == "k1-001-01"
