@@ -38,9 +38,9 @@ from airmat.errors import InputError, NotACylinderError
 from calib.cylinder_init import initial_cylinder
 from calib.cylinder_irls import kappa_standard_error, polish
 from calib.cylinder_lsq import arc_position, refine, residuals
-from calib.groove_bands import groove_bands
+from calib.cylinder_refine import full_resolution_fit, surface_spread
 from calib.scan_noise import local_noise
-from calib.support_plane import find_support_planes
+from calib.scan_prep import normals_knn, specimen_candidates, specimen_voxel
 from calib.voxel_grid import voxel_cloud
 
 __all__ = ["CylinderFit", "fit_cylinder", "MIN_FIT_POINTS"]
@@ -74,7 +74,8 @@ class CylinderFit:
     inlier_fraction : float
         Inliers over the points off the support plane(s).
     rms : float
-        RMS geometric residual of the inliers (m).
+        RMS geometric residual (m) of the points of the final fit: the
+        inliers off the string-end groove bands.
     arc_deg : float
         Angle of the arc the inliers cover (degrees).
     n_points : int
@@ -92,7 +93,7 @@ class CylinderFit:
     n_iter : int
         Least-squares function evaluations, all stages.
     residual : float
-        RMS residual of all points of the final least squares (m).
+        RMS residual of all inliers, grooves included (m).
     message : str
         The final least squares' message.
     """
@@ -136,13 +137,17 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     min_inlier_fraction : float
         Refuse when fewer of the points off the supports are inliers.
     max_rms_ratio, max_rms_rel : float
-        Refuse when the inliers' RMS exceeds both ``max_rms_ratio`` times
-        the noise and ``max_rms_rel`` times the inliers' extent (the second
-        keeps noise-free, slightly imperfect surfaces acceptable).
+        Refuse when the RMS residual of the fitted face exceeds both
+        ``max_rms_ratio`` times the local noise and ``max_rms_rel`` times the
+        inliers' extent (the second keeps noise-free, slightly imperfect
+        surfaces, e.g. simulated ones, acceptable; raise both to accept
+        anything cylinder-like).
     inlier_sigmas : float
         Inlier band, in units of the residual scale.
     band_sigmas : float
-        Points within this many noise levels enter the full-resolution fit.
+        Points within this many residual scales enter the full-resolution
+        fit. The residual scale is the local noise, or the face's own
+        departure from a cylinder when that is more than 1.5 times larger.
     max_planarity : float
         Refuse when the normals' eigenvalue ratio exceeds this (sphere-like).
     remove_support : bool
@@ -156,8 +161,8 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         levels from the best cross-section circle (string-end grooves) are
         left out of the fit (:mod:`calib.groove_bands`).
     n_subsample : int
-        Points of the trust-region fit before the full-resolution
-        Gauss-Newton polish (speed).
+        Size of the random subset the selection rounds run on before the
+        final pass over every point (speed).
     n_clusters : int
         Arc bins of the cluster-robust standard error.
 
@@ -183,31 +188,44 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         raise NotACylinderError(
             f"points do not sample a surface: local scatter {est.sigma * 1e3:.3g} mm in "
             f"{est.voxel * 1e3:.3g} mm voxels", roughness=est.roughness)
-    sigma = float(noise) if noise is not None else max(est.sigma, 1e-6 * diag)
-    cand, n_support = _specimen_candidates(pts, sub, sigma, diag, est, remove_support, rng)
+    noise_level = float(noise) if noise is not None else max(est.sigma, 1e-6 * diag)
+    cand, n_support = specimen_candidates(pts, sub, noise_level, diag, est, rng) if remove_support \
+        else (pts, 0)
     cand_sub = cand[rng.choice(len(cand), _SUB, replace=False)] if len(cand) > _SUB else cand
     density = 24.0 / est.voxel**2 * len(pts) / len(sub)  # points per m^2 of surface, full scan
-    down = voxel_cloud(cand_sub, _voxel_for(len(cand), len(cand_sub), density, sigma), min_count=5).points
+    init, stage = _start(cand_sub, specimen_voxel(len(cand), len(cand_sub), density, noise_level),
+                         noise_level, diag, max_planarity, rng)
+    # a surface that departs from a cylinder by more than the local noise (a simulated or
+    # wrinkled face) sets the scale of the bands and the loss itself
+    sigma = noise_level
+    spread = surface_spread(cand_sub, stage.frame, sigma, band_sigmas, int(rng.integers(2**31)))
+    if spread > 1.5 * sigma:
+        log.info("residual scale %.3g mm exceeds the local noise %.3g mm; using it",
+                 spread * 1e3, sigma * 1e3)
+        sigma = spread
+    # a flat specimen keeps the footprint's axis: choosing the direction of largest
+    # apparent curvature would bias |kappa| up
+    frame, final, used, n_more = full_resolution_fit(
+        cand, stage.frame, sigma, band_sigmas, loss, loss_sigmas * sigma, n_subsample, groove_sigmas,
+        rng, True if init.flat else None)
+    limits = (inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel)
+    return _summarize(cand, frame, final, used, len(pts), n_support, (noise_level, sigma),
+                      stage.n_iter + n_more, init.scatter, limits, loss, loss_sigmas * sigma, n_clusters)
+
+
+def _start(cand_sub, voxel, sigma, diag, max_planarity, rng):
+    """Downsample, initialize (axis and circle, or height field) and fit the downsampled cloud."""
+    down = voxel_cloud(cand_sub, voxel, min_count=5).points
     if len(down) < MIN_FIT_POINTS:
         raise NotACylinderError(f"only {len(down)} surface voxels left off the floor plane(s)",
                                 n_points=len(down))
-    init = initial_cylinder(
-        down, _normals(down), threshold=max(4 * sigma, 2e-3 * diag), max_planarity=max_planarity,
-        flat_deg=_FLAT_DEG, seed=int(rng.integers(2**31)))
-    scatter = init.scatter
+    init = initial_cylinder(down, normals_knn(down), threshold=max(4 * sigma, 2e-3 * diag),
+                            max_planarity=max_planarity, flat_deg=_FLAT_DEG, seed=int(rng.integers(2**31)))
     if init.nearly_flat:  # axis from the height field, held still: Gauss-Newton
         stage = polish(down[init.inliers], init.frame, f_scale=sigma, loss="soft_l1", hold_axis=True)
     else:
         stage = refine(down[init.inliers], init.frame, f_scale=sigma, max_nfev=100)
-    # a flat specimen keeps the footprint's axis: choosing the direction of largest
-    # apparent curvature would bias |kappa| up
-    hold = True if init.flat else None
-    frame, final, used, n_more = _full_resolution(cand, stage.frame, sigma, band_sigmas, loss,
-                                                  loss_sigmas * sigma, n_subsample, groove_sigmas, rng,
-                                                  hold)
-    return _summarize(cand, frame, final, used, pts, n_support, sigma, stage.n_iter + n_more, scatter,
-                      inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss,
-                      loss_sigmas * sigma, n_clusters)
+    return init, stage
 
 
 #: normal spread (degrees) below which a specimen is initialized as nearly flat
@@ -230,97 +248,11 @@ def _check_points(points) -> np.ndarray:
     return pts
 
 
-def _normals(points, knn=20):
-    """Unit normals of a downsampled cloud from its ``knn`` nearest neighbours (open3d)."""
-    import open3d as o3d
-
-    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=knn))
-    return np.asarray(cloud.normals)
-
-
-def _voxel_for(n_cand, n_cand_sub, density, sigma, fill=20.0, max_voxels=15_000):
-    """Voxel holding about ``fill`` points of the (subsampled) specimen, ``max_voxels`` at most.
-
-    ``density`` is the scan's points per m^2 of surface (from the noise voxels,
-    which hold about 24 points each).
-    """
-    area = n_cand / density
-    v_fill = np.sqrt(fill / (density * n_cand_sub / n_cand))
-    return float(max(v_fill, np.sqrt(area / max_voxels), 6 * sigma))
-
-
-def _specimen_candidates(pts, sub, sigma, diag, est, remove_support, rng):
-    """Points off the support plane(s), and how many were on them."""
-    if not remove_support:
-        return pts, 0
-    # coarse grid for the plane search; sparse scans need voxels holding a few points
-    coarse = voxel_cloud(sub, max(diag / 100, 0.6 * est.voxel), min_count=3).points
-    if len(coarse) < MIN_FIT_POINTS:
-        return pts, 0
-    planes = find_support_planes(coarse, normals=_normals(coarse), threshold=4 * sigma,
-                                 reference=sub[:20_000], seed=int(rng.integers(2**31)))
-    on = planes.support_mask(pts)
-    n_support = int(np.count_nonzero(on))
-    if n_support:
-        log.debug("removed %d points on %d support plane(s)", n_support, len(planes.supports))
-    return pts[~on], n_support
-
-
-def _full_resolution(cand, frame, sigma, band_sigmas, loss, f_scale, n_subsample, groove_sigmas, rng,
-                     hold_axis, n_rounds=5):
-    """Robust fit on the full-resolution points near the surface.
-
-    Rounds on a random subset of at most ``n_subsample`` points: select the
-    points within the band minus the groove bands
-    (:func:`calib.groove_bands.groove_bands`, coarse to fine: the band
-    tolerance shrinks to ``groove_sigmas`` over the first rounds, so that a
-    start that followed a groove is pulled off it first) and refit, until
-    the selection settles; then the same selection on every point and
-    Gauss-Newton steps on all of them (:func:`calib.cylinder_lsq.polish`,
-    which starts within the subsample's sampling error of the optimum).
-    """
-    sub = cand[rng.choice(len(cand), n_subsample, replace=False)] if len(cand) > n_subsample else cand
-    seed = int(rng.integers(2**31))
-    n_iter, used = 0, None
-    tols = [max(groove_sigmas, t) for t in (1.0, 0.5)] + [groove_sigmas] * n_rounds
-    for r in range(n_rounds):
-        keep, grooves = _select(sub, frame, sigma, band_sigmas, tols[r], seed)
-        settled = r >= 2 and np.count_nonzero(keep != used) < 1e-3 * len(sub)
-        used = keep
-        result = polish(sub[keep], frame, f_scale=f_scale, loss=loss, hold_axis=hold_axis)
-        n_iter += result.n_iter
-        frame = result.frame
-        if settled:
-            break
-    if sub is not cand:
-        keep = np.abs(residuals(cand, frame)) < band_sigmas * sigma
-        keep[keep] = ~grooves.classify(cand[keep], frame)
-        # the subset's fit is off by its own sampling error, sqrt(N / n) full-set errors
-        trust = 3.0 * np.sqrt(np.count_nonzero(keep) / max(np.count_nonzero(used), 1))
-        result = polish(cand[keep], frame, f_scale=f_scale, loss=loss, max_iter=8, hold_axis=hold_axis,
-                        trust_one_step=trust)
-        n_iter += result.n_iter
-        frame = result.frame
-    return frame, result, keep, n_iter
-
-
-def _select(points, frame, sigma, band_sigmas, groove_tol, seed):
-    """(N,) bool: points within ``band_sigmas`` noise levels of the surface, outside groove bands."""
-    e = residuals(points, frame)
-    near = np.abs(e) < band_sigmas * sigma
-    if near.sum() < MIN_FIT_POINTS:
-        raise NotACylinderError(f"only {int(near.sum())} points within {band_sigmas:g} noise "
-                                f"levels of the fitted cylinder")
-    idx = np.flatnonzero(near)
-    grooves = groove_bands(points[idx], frame, sigma=sigma, seed=seed, tol_sigmas=groove_tol)
-    near[idx[grooves.excluded]] = False
-    return near, grooves
-
-
-def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter, inlier_sigmas,
-               min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters):
+def _summarize(cand, frame, final, used, n_points, n_support, sigmas, n_iter, scatter, limits, loss,
+               f_scale, n_clusters):
+    """Inliers, refusal checks, standard error, arc and centre: the CylinderFit."""
+    noise, sigma = sigmas  # local noise; working residual scale (>= noise)
+    inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel = limits
     e = residuals(cand, frame)
     near = np.abs(e) < 10 * sigma
     stride = max(len(e) // 50_000, 1)  # order statistics from a systematic subsample (speed)
@@ -331,12 +263,12 @@ def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter,
     if frac < min_inlier_fraction:
         raise NotACylinderError(f"only {100 * frac:.0f}% inliers (need {100 * min_inlier_fraction:.0f}%)"
                                 + _why(scatter), inlier_fraction=frac)
-    rms = float(np.sqrt(np.mean(e[inl] ** 2)))
+    rms = float(np.sqrt(np.mean(e[used] ** 2)))  # the fitted face, off the groove bands
     inl_sub = cand[inl][::stride]
     ext = float(np.linalg.norm(np.ptp(inl_sub, axis=0)))
-    if rms > max_rms_ratio * sigma and rms > max_rms_rel * ext:
-        raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {sigma * 1e3:.2g} mm noise"
-                                + _why(scatter), rms=rms, noise=sigma)
+    if rms > max_rms_ratio * noise and rms > max_rms_rel * ext:
+        raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {noise * 1e3:.2g} mm noise"
+                                + _why(scatter), rms=rms, noise=noise)
     se_iid, se_cl = kappa_standard_error(cand[used], frame, f_scale=f_scale, loss=loss,
                                          n_clusters=n_clusters, state=final.state)
     kappa, se = abs(frame.kappa), max(se_iid, se_cl)
@@ -349,10 +281,10 @@ def _summarize(cand, frame, final, used, pts, n_support, sigma, n_iter, scatter,
     if not final.converged:
         log.warning("cylinder least squares did not converge: %s", final.message)
     return CylinderFit(radius=np.inf if flat else 1.0 / kappa, kappa=kappa, kappa_se=se, axis=axis,
-                       center=center, inlier_fraction=frac, rms=rms, arc_deg=arc, n_points=len(pts),
-                       n_inliers=n_inl, n_support=n_support, noise=sigma, kappa_se_iid=se_iid,
+                       center=center, inlier_fraction=frac, rms=rms, arc_deg=arc, n_points=n_points,
+                       n_inliers=n_inl, n_support=n_support, noise=noise, kappa_se_iid=se_iid,
                        converged=final.converged, n_iter=n_iter,
-                       residual=float(np.sqrt(np.mean(e[used] ** 2))), message=final.message)
+                       residual=float(np.sqrt(np.mean(e[inl] ** 2))), message=final.message)
 
 
 def _why(scatter) -> str:

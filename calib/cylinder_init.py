@@ -18,6 +18,7 @@ gives the arc direction, its eigenvalue the curvature.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -157,9 +158,11 @@ def circle_init(points: np.ndarray, axis: np.ndarray, *, threshold: float, max_t
     c_uv = uv.mean(axis=0)
     span = float(np.ptp(uv, axis=0).max()) or 1.0
     data = (uv - c_uv) / span  # centred and scaled: well conditioned anywhere
-    model, inliers = ransac(data, CircleModel, min_samples=3, residual_threshold=threshold / span,
-                            max_trials=max_trials, stop_probability=0.999, rng=seed,
-                            is_model_valid=lambda m, *_: bool(np.isfinite(m.radius) and m.radius < 1e4))
+    with warnings.catch_warnings():  # "No inliers found": reported below as a refusal
+        warnings.filterwarnings("ignore", message="No inliers found", category=UserWarning)
+        model, inliers = ransac(data, CircleModel, min_samples=3, residual_threshold=threshold / span,
+                                max_trials=max_trials, stop_probability=0.999, rng=seed,
+                                is_model_valid=lambda m, *_: bool(np.isfinite(m.radius) and m.radius < 1e4))
     if model is None or inliers is None or inliers.sum() < 6:
         raise NotACylinderError("no circular arc found in the cross-section along the axis")
     center = c_uv + np.asarray(model.center) * span
@@ -175,8 +178,7 @@ def circle_init(points: np.ndarray, axis: np.ndarray, *, threshold: float, max_t
     return CylinderFrame(origin=c3 + radius * u, normal=-u, axis=axis, kappa=1.0 / radius), inliers
 
 
-def height_field_init(points: np.ndarray, *, seed=0,
-                      n_trim: int = 10) -> tuple[CylinderFrame, np.ndarray, bool]:
+def height_field_init(points: np.ndarray, *, n_trim: int = 10) -> tuple[CylinderFrame, np.ndarray, bool]:
     """Nearly flat specimen: cylinder frame from a robust quadratic height field.
 
     The Hessian's dominant eigenvector is the arc direction and its
@@ -188,8 +190,6 @@ def height_field_init(points: np.ndarray, *, seed=0,
     ----------
     points : ndarray of shape (N, 3)
         Candidate specimen points (m), mostly one nearly flat surface.
-    seed : int
-        Unused (deterministic); kept for a uniform signature.
     n_trim : int
         Trimmed refits (drop residuals above 3 median absolute residuals).
 
@@ -278,7 +278,7 @@ def initial_cylinder(points: np.ndarray, normals: np.ndarray, *, threshold: floa
     """
     scatter = normal_scatter(normals)
     if scatter.spread_deg < flat_deg:
-        frame, inliers, flat = height_field_init(points, seed=seed)
+        frame, inliers, flat = height_field_init(points)
         return InitialCylinder(frame, inliers, scatter, nearly_flat=True, flat=flat)
     if scatter.planarity > max_planarity:
         raise NotACylinderError(

@@ -106,7 +106,11 @@ def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     for _ in range(max_iter):
         w = loss_weights(e, f, loss)
         A = _curvature(Jt, e, w, f, loss)
-        A_inv = np.linalg.inv(A)
+        try:
+            A_inv = np.linalg.inv(A)
+        except np.linalg.LinAlgError as err:
+            raise ConvergenceError("cylinder Gauss-Newton: singular normal equations (no points "
+                                   "within the robust loss scale?)", f_scale=f_scale) from err
         grad = Jt @ (w * e)
         step = -A_inv @ grad
         if not np.all(np.isfinite(step)):

@@ -81,6 +81,7 @@ def _distance(X, Z, k, derivatives=False):
     e = N / D
     if not derivatives:
         return e
+    S = np.maximum(S, np.finfo(float).tiny)  # 0 only for a point exactly on the axis
     dX = -kX / S
     dZ = u / S
     dk = -(s * D + N * (Z - N) / S) / (D * D)  # k s - Z = Z - N

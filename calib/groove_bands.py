@@ -3,9 +3,9 @@
 The wrinkles at the string ends (paper §2.2, Figure 2) are dips of several
 millimetres along lines across the strip, i.e. parallel to the axis. In
 bins of arc position (each spanning the whole width) they show as bands
-whose median residual departs from zero, and their flanks fade into the
-surface too gently for any robust loss to ignore: a groove flank at the
-end of a short arc looks like curvature.
+whose median residual departs from zero, all to the same side (dips), and
+their flanks fade into the surface too gently for any robust loss to
+ignore: a groove flank at the end of a short arc looks like curvature.
 
 So the bands are judged against the best *circle*, not against the
 current fit: near a fit, a change of the cross-section circle (offset
@@ -63,7 +63,9 @@ class GrooveBands:
 
 def groove_bands(points: np.ndarray, frame: CylinderFrame, *, sigma: float, seed=0,
                  n_bins: int = 60, min_per_bin: int = 30, tol_sigmas: float = 0.2,
-                 n_trials: int = 300, min_consensus: float = 0.3, grow: float = 0.3) -> GrooveBands:
+                 n_trials: int = 300, min_consensus: float = 0.4, max_runs: int = 6,
+                 one_sided: float = 0.25,
+                 grow: float = 0.3) -> GrooveBands:
     """Points in arc bands that one cylinder cross-section does not explain.
 
     Parameters
@@ -88,6 +90,16 @@ def groove_bands(points: np.ndarray, frame: CylinderFrame, *, sigma: float, seed
     min_consensus : float
         When the best consensus holds less than this share of the points,
         nothing is excluded (no clear groove structure).
+    one_sided : float
+        Grooves dip to one side of the surface: the bands departing to the
+        other side may hold at most this fraction of the points of those
+        departing to the main side (noise at the tolerance), else nothing is
+        excluded. Only the main side's bands are excluded.
+    max_runs : int
+        Grooves are a few isolated bands (one per string end in view); when
+        the excluded bands form more runs than this, the deviations are
+        spread over the surface (wrinkles, a slightly different shape) and
+        nothing is excluded.
     grow : float
         Each run of excluded bands is widened by this fraction of its
         length on both sides (the flanks).
@@ -112,11 +124,19 @@ def groove_bands(points: np.ndarray, frame: CylinderFrame, *, sigma: float, seed
     med, jbar = _band_stats(e, cols, b, nb, valid)
     tol = np.maximum(4 * 1.2533 * sigma / np.sqrt(np.maximum(counts, 1)), tol_sigmas * sigma)[valid]
     w = counts[valid]
-    inl = _ransac(med, jbar, tol, w, np.random.default_rng(seed), n_trials)
+    inl, dev = _ransac(med, jbar, tol, w, np.random.default_rng(seed), n_trials)
     if w[inl].sum() < min_consensus * w.sum():
         return none
+    # grooves are dips: their bands depart to one side; departures to both sides are a
+    # face that is simply not this cylinder (wrinkles, another shape)
+    up, down = w[~inl & (dev > 0)].sum(), w[~inl & (dev < 0)].sum()
+    if min(up, down) > one_sided * max(up, down):
+        return none
+    side = ~inl & (np.sign(dev) == (1 if up >= down else -1))
     bad = np.zeros(nb, dtype=bool)
-    bad[np.flatnonzero(valid)[~inl]] = True
+    bad[np.flatnonzero(valid)[side]] = True
+    if _count_runs(_dilate_runs(bad, 0.0)) > max_runs:  # gaps of up to two bands closed
+        return none
     bad = _dilate_runs(bad, grow)
     return GrooveBands(excluded=bad[b], n_bands=int(valid.sum()), n_excluded_bands=int(bad.sum()),
                        lo=lo, hi=hi, bad=bad)
@@ -124,6 +144,11 @@ def groove_bands(points: np.ndarray, frame: CylinderFrame, *, sigma: float, seed
 
 def _band_index(s, lo, hi, nb):
     return np.clip(((s - lo) / max(hi - lo, np.finfo(float).tiny) * nb).astype(np.int64), 0, nb - 1)
+
+
+def _count_runs(bad: np.ndarray) -> int:
+    """Number of maximal runs of True."""
+    return int(np.count_nonzero(np.diff(np.concatenate([[0], bad.astype(np.int8)])) == 1))
 
 
 def _dilate_runs(bad: np.ndarray, grow: float) -> np.ndarray:
@@ -153,7 +178,10 @@ def _band_stats(e, cols, b, nb, valid):
 
 
 def _ransac(med, jbar, tol, w, rng, n_trials):
-    """(B,) bool: bands of the largest (point-weighted) consensus, refined once by least squares."""
+    """Bands of the largest (point-weighted) consensus, refined once by least squares.
+
+    Returns the (B,) inlier mask and the (B,) signed departures from the consensus.
+    """
     B = len(med)
     triples = rng.random((n_trials, B)).argsort(axis=1)[:, :3]
     A = jbar[triples]                                # (T, 3, 3)
@@ -164,8 +192,10 @@ def _ransac(med, jbar, tol, w, rng, n_trials):
     coef[ok] = np.linalg.solve(A[ok], rhs[ok][..., None])[..., 0]
     inl = np.abs(med[None, :] - coef @ jbar.T) < tol[None, :]
     score = np.where(ok, (inl * w).sum(axis=1), -1)
-    best = inl[int(np.argmax(score))]
+    k = int(np.argmax(score))
+    best, dev = inl[k], med - jbar @ coef[k]
     if best.sum() >= 3:  # refit on the consensus and take its inliers
         c, *_ = np.linalg.lstsq(jbar[best] * np.sqrt(w[best, None]), med[best] * np.sqrt(w[best]), rcond=None)
-        best = np.abs(med - jbar @ c) < tol
-    return best
+        dev = med - jbar @ c
+        best = np.abs(dev) < tol
+    return best, dev

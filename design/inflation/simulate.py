@@ -187,6 +187,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
             log.info("inflation stage to %.0f%% failed; retrying with a step of %.1f%%", 100 * nxt, 100 * step)
             continue
         x, lam, result, n_stages = r.xyz, nxt, r, n_stages + 1
+        log.debug("inflation stage to %.1f%%: %d iterations, residual %.2e", 100 * lam, r.n_iter, r.residual)
         if last:
             break
     if not result.converged and strict:

@@ -33,7 +33,7 @@ __all__ = ["SolveResult", "solve", "rigid_pins"]
 
 log = logging.getLogger(__name__)
 
-#: largest edge strain before the run is declared diverged (the membrane would have torn)
+#: largest edge stretch before the run is declared diverged (the membrane would have torn)
 MAX_STRAIN = 0.5
 
 
@@ -131,9 +131,9 @@ def _check_sane(model: Model, x: np.ndarray, e: float, it: int) -> None:
     if not np.isfinite(e) or not np.all(np.isfinite(x)):
         raise ConvergenceError(f"diverged at iteration {it}: non-finite energy or positions", iteration=it)
     b1 = model.springs[0]
-    strain = float(np.max(np.abs(b1.lengths(x) / b1.rest - 1.0)))
+    strain = float(np.max(b1.lengths(x) / b1.rest - 1.0))
     if strain > MAX_STRAIN:
-        raise ConvergenceError(f"diverged at iteration {it}: an edge is strained by {strain:.0%} "
+        raise ConvergenceError(f"diverged at iteration {it}: an edge is stretched by {strain:.0%} "
                                f"(> {MAX_STRAIN:.0%}); the pressure is far too high for the membrane "
                                f"stiffness", iteration=it, strain=strain)
 

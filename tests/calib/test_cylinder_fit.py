@@ -140,7 +140,7 @@ def _box(rng, a=0.3, b=0.4, c=0.25, m=8000, noise=0.0005):
 
 
 @pytest.mark.parametrize("shape, words", [
-    ("sphere", ("inliers", "sphere-like")),
+    ("sphere", ("RMS", "sphere-like")),
     ("flat_sphere", ("RMS", "noise")),
     ("box", ("inliers",)),
     ("random", ("do not sample a surface",)),
@@ -226,11 +226,11 @@ def test_groove_bands_find_a_groove_and_nothing_on_a_clean_face():
 
 def test_support_planes_floor_is_removed_flat_top_is_kept():
     from calib.voxel_grid import voxel_cloud
-    from calib.cylinder_fit import _normals
+    from calib.scan_prep import normals_knn
 
     s = specimen_scan(0.0, n_points=40_000, seed=81)
     down = voxel_cloud(s.points, 0.015).points
-    planes = find_support_planes(down, normals=_normals(down), threshold=4 * s.noise, reference=s.points)
+    planes = find_support_planes(down, normals=normals_knn(down), threshold=4 * s.noise, reference=s.points)
     assert len(planes.supports) == 1
     assert abs(planes.supports[0].normal @ s.normal) > 0.9999
     on = planes.support_mask(s.points)
