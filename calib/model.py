@@ -32,7 +32,7 @@ __all__ = ["bend_angle", "kappa1", "string_length", "kappa_max", "flat_length"]
 _MAX_ITER = 80
 
 
-def _bracketed_newton(f, lo, hi, args=(), *, increasing: bool):
+def _bracketed_newton(f, lo, hi, args=(), *, increasing: bool, x0=None):
     """Root of a monotonic ``f(x, *args) -> (value, derivative)`` in [lo, hi], elementwise.
 
     Newton steps that would leave the current bracket are replaced by
@@ -40,7 +40,7 @@ def _bracketed_newton(f, lo, hi, args=(), *, increasing: bool):
     element converges (quadratically near its root) to a few ulps of pi.
     """
     lo, hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
-    x = 0.5 * (lo + hi)
+    x = 0.5 * (lo + hi) if x0 is None else np.clip(x0, lo, hi)
     for _ in range(_MAX_ITER):
         fx, dfx = f(x, *args)
         below = (fx < 0) == increasing  # the root lies above x
@@ -50,7 +50,9 @@ def _bracketed_newton(f, lo, hi, args=(), *, increasing: bool):
             newton = x - fx / dfx
         inside = (newton >= lo) & (newton <= hi)
         x_new = np.where(inside, newton, 0.5 * (lo + hi))
-        if np.all(np.abs(x_new - x) <= 4 * np.finfo(float).eps * np.pi) or np.all(fx == 0):
+        step = np.abs(x_new - x)
+        # after a Newton step of size h the error is O(h**2): h <= 1e-7 leaves ~1e-14 rad
+        if np.all(step <= 4 * np.finfo(float).eps * np.pi) or (np.all(inside) and step.max() <= 1e-7):
             return x_new
         x = x_new
     return x
@@ -84,7 +86,9 @@ def _solve_theta(l, L, delta, d):
         ls = _lstar(theta, L, d)
         return ls * s - lstar, d * s + 0.5 * ls * c
 
-    theta = _bracketed_newton(g, lo, np.full_like(lo, np.pi), (lstar, L, d), increasing=True)
+    # start from the bend without wrinkles (L* = L), a close lower estimate of the root
+    x0 = 2.0 * np.arcsin(np.minimum(lstar / L, 1.0))
+    theta = _bracketed_newton(g, lo, np.full_like(lo, np.pi), (lstar, L, d), increasing=True, x0=x0)
     # l* = 0: the root is the bracket's end theta_min itself
     return np.where(lstar <= 0.0, lo, theta)
 
