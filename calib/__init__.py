@@ -12,6 +12,8 @@ Public API (SI units: metres, 1/m):
 - :func:`write_report`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.report``, ``calib.plots``).
 """
 
+import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
+
 from calib.model import bend_angle, flat_length, kappa1, kappa_max, string_length
 from calib.scan_io import Scan, read_scan
 from calib.cylinder_fit import CylinderFit, fit_cylinder

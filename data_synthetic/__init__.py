@@ -10,6 +10,8 @@ One generator per module (functions are not re-exported under their module's nam
   ``preset(name)``, the five target presets with their mattress.
 """
 
+import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
+
 from data_synthetic.ply_write import write_ply
 from data_synthetic.targets import preset
 

@@ -11,6 +11,8 @@ Public API of the surface side (SI units: metres, 1/m):
 - :func:`approximate_surface`, :func:`mattress_field` -- all of it in two calls (``design.surface``).
 """
 
+import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
+
 from design.constructibility import ConstructibilityReport, constructibility
 from design.curvature import PrincipalCurvature, principal_curvature
 from design.field import FAMILIES, MattressField
