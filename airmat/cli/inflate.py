@@ -1,4 +1,4 @@
-"""`airmat inflate`: not implemented yet."""
+"""`airmat inflate DESIGN_DIR --out DIR`: simulate the inflation of a design and compare it with Ŝ."""
 
 from __future__ import annotations
 
@@ -6,9 +6,41 @@ from airmat.errors import InputError
 
 
 def add_parser(sub, parents):
-    p = sub.add_parser("inflate", parents=parents, help="(not implemented yet)")
+    p = sub.add_parser("inflate", parents=parents,
+                       help="simulate the mattress inflating with its string pattern (paper §3.4)",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder: inflate.json, inflated.ply, deviation.png")
+    p.add_argument("--resolution-mm", type=float, default=25.0,
+                   help="edge length of the double-layer mesh (default 25, near the loop-pin spacing)")
+    p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
+    p.add_argument("--no-envelope", action="store_true",
+                   help="skip the runs with every string at its lo95 and hi95 length")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    raise InputError("'airmat inflate' is not implemented yet")
+    from dataclasses import replace
+
+    from airmat.atomic import staged_dir
+    from airmat.units import MM
+    from design.inflation.check import check_design
+    from design.inflation.design_folder import read_design_folder
+    from design.inflation.model import Parameters
+    from design.inflation.report import summary_text, write_check
+
+    if not (args.resolution_mm > 0):
+        raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
+    params = Parameters()
+    if args.pressure_pa is not None:
+        if not (args.pressure_pa > 0):
+            raise InputError(f"--pressure-pa must be > 0, got {args.pressure_pa!r}")
+        params = replace(params, pressure=args.pressure_pa)
+    design = read_design_folder(args.design)
+    check = check_design(design, resolution=args.resolution_mm * MM, params=params,
+                         envelope=not args.no_envelope)
+    with staged_dir(args.out) as tmp:
+        doc = write_check(check, tmp)
+    print(summary_text(doc, args.out))
+    return 0

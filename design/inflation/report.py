@@ -1,0 +1,111 @@
+"""Files of the inflation check: inflate.json, inflated.ply, deviation.png (mm, 1/m)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from airmat import __version__
+from airmat.atomic import atomic_write_bytes, atomic_write_text
+from airmat.units import M_TO_MM
+
+__all__ = ["check_dict", "write_check", "summary_text"]
+
+
+def _run_dict(run) -> dict:
+    inf, dev = run.inflation, run.deviation
+    return {"deviation": {"rms_mm": round(dev.rms * M_TO_MM, 3), "max_mm": round(dev.max * M_TO_MM, 3),
+                          "rms_pct_diag": round(dev.rms_pct_diag, 4)},
+            "solver": {"converged": bool(inf.converged), "iterations": int(inf.n_iter),
+                       "residual": float(inf.residual), "seconds": round(inf.seconds, 3),
+                       "stages": int(inf.stages), "message": inf.message}}
+
+
+def check_dict(check) -> dict:
+    """The inflate.json document of a :class:`~design.inflation.check.DesignCheck`."""
+    med = check.runs["median"]
+    doc = {"airmat_version": __version__, "design": str(check.design.path),
+           "resolution_mm": round(check.resolution * M_TO_MM, 3),
+           "mesh_vertices": int(med.inflation.mesh.n_vertices),
+           "delta_mm": round(check.design.delta * M_TO_MM, 3),
+           "note": "strings simulated at l* = l + 2 delta (their ends do not slip in the simulation); "
+                   "deviation of the aligned mid-surface from approx_surface, correspondence through the mattress",
+           **_run_dict(med)}
+    doc["envelope"] = {k: _run_dict(r)["deviation"] for k, r in check.runs.items() if k != "median"}
+    doc["envelope_solver"] = {k: _run_dict(r)["solver"] for k, r in check.runs.items() if k != "median"}
+    d = check.design
+    doc["dashes"] = [{"id": i, "side": "top" if t else "bottom", "kappa_target_per_m": round(float(kt), 4),
+                      **{f"kappa_realized_{k}_per_m": round(float(r.kappa_realized[n]), 4)
+                         for k, r in check.runs.items()}}
+                     for n, (i, t, kt) in enumerate(zip(d.ids, d.top, d.kappa))]
+    for dash in doc["dashes"]:
+        dash["kappa_realized_per_m"] = dash.pop("kappa_realized_median_per_m")
+    return doc
+
+
+def _plot(check, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d, med = check.design, check.runs["median"]
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [1.25, 1]})
+    tpc = ax.tripcolor(d.approx_uv[:, 0] * M_TO_MM, d.approx_uv[:, 1] * M_TO_MM, d.approx_faces,
+                       med.deviation.per_vertex * M_TO_MM, shading="gouraud", cmap="viridis")
+    fig.colorbar(tpc, ax=ax, label="deviation from Ŝ (mm)")
+    for a, b, top in zip(d.a, d.b, d.top):
+        ax.plot([a[0] * M_TO_MM, b[0] * M_TO_MM], [a[1] * M_TO_MM, b[1] * M_TO_MM],
+                color="white" if top else "red", lw=1.5, ls="-" if top else ":")
+    ax.set_aspect("equal")
+    ax.set_xlabel("u (mm)")
+    ax.set_ylabel("v (mm)")
+    ax.set_title("Ŝ coloured by the deviation of the inflated mattress\n(on the mattress; strings: white top, "
+                 "red dotted bottom)", fontsize=9)
+    ax2.axline((0, 0), slope=1, color="grey", lw=0.8)
+    for key, mark in (("median", "o"), ("lo95", "v"), ("hi95", "^")):
+        if key in check.runs:
+            ax2.plot(d.kappa, check.runs[key].kappa_realized, mark, ms=4, label=f"strings at {key}")
+    ax2.set_xlabel("target κ of the dash (1/m)")
+    ax2.set_ylabel("realized κ (1/m)")
+    ax2.legend(fontsize=8)
+    ax2.set_title("curvature along each dash", fontsize=9)
+    env = " · ".join(f"{k}: RMS {r.deviation.rms * M_TO_MM:.1f} mm, max {r.deviation.max * M_TO_MM:.1f} mm"
+                     for k, r in check.runs.items())
+    fig.suptitle(f"airmat inflate: {env}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_check(check, folder) -> dict:
+    """Write inflate.json, inflated.ply and deviation.png into ``folder``; return the JSON document."""
+    folder = Path(folder)
+    doc = check_dict(check)
+    atomic_write_text(folder / "inflate.json", json.dumps(doc, indent=2) + "\n")
+    inf = check.runs["median"].inflation
+    mesh = trimesh.Trimesh(inf.xyz * M_TO_MM, inf.mesh.faces, process=False)
+    atomic_write_bytes(folder / "inflated.ply", trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
+    _plot(check, folder / "deviation.png")
+    return doc
+
+
+def summary_text(doc: dict, out) -> str:
+    dev, env, s = doc["deviation"], doc["envelope"], doc["solver"]
+    lines = [f"airmat inflate: {len(doc['dashes'])} strings, {doc['mesh_vertices']} vertices at "
+             f"{doc['resolution_mm']:g} mm",
+             f"  solver: {'converged' if s['converged'] else 'NOT CONVERGED'} in {s['iterations']} Newton "
+             f"iterations, residual {s['residual']:.1e}, {s['seconds']:.1f} s",
+             f"  deviation from S-hat: RMS {dev['rms_mm']:.1f} mm ({dev['rms_pct_diag']:.2f}% of the diagonal), "
+             f"max {dev['max_mm']:.1f} mm"]
+    for k, e in env.items():
+        lines.append(f"  strings at {k}: RMS {e['rms_mm']:.1f} mm, max {e['max_mm']:.1f} mm")
+    if doc["dashes"]:
+        err = np.array([x["kappa_realized_per_m"] - x["kappa_target_per_m"] for x in doc["dashes"]])
+        lines.append(f"  realized minus target curvature per dash: mean {err.mean():+.2f}, "
+                     f"RMS {np.sqrt(np.mean(err ** 2)):.2f} 1/m")
+    lines.append(f"  wrote inflate.json, inflated.ply, deviation.png to {out}")
+    return "\n".join(lines)
