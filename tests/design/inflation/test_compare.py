@@ -1,0 +1,58 @@
+"""Comparison of an inflation with Ŝ: Kabsch alignment and the sign of the realized curvature."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from calib.model import kappa1
+from design.inflation.compare import deviation, realized_curvature, surface_at
+from design.inflation.mesh import build_mattress_mesh
+from design.inflation.simulate import inflate
+from design.inflation.strings import StringSet
+
+W, H, D = 0.6, 0.3, 0.07
+V = np.array([0.075, 0.225])
+A = np.column_stack([np.full(2, 0.15), V])
+B = np.column_stack([np.full(2, 0.45), V])
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return build_mattress_mesh(W, H, D, resolution=0.05)
+
+
+@pytest.fixture(scope="module")
+def top_strings(mesh):
+    return inflate(mesh, StringSet(A, B, np.full(2, True), np.full(2, 0.2)))
+
+
+def test_deviation_is_rigid_motion_invariant(top_strings):
+    uv = np.random.default_rng(0).uniform([0, 0], [W, H], size=(200, 2))
+    mid, _ = surface_at(top_strings, uv)
+    rot = Rotation.from_rotvec([0.3, -0.2, 1.1])
+    target = rot.apply(mid) + [1.0, -2.0, 0.5]
+    dev = deviation(top_strings, target, uv)
+    assert dev.rms < 1e-9 and dev.max < 1e-9
+    bumped = target + np.outer(np.arange(200) % 2 * 2 - 1, [0, 0, 1e-3])  # +-1 mm, no rigid part
+    assert deviation(top_strings, bumped, uv).rms == pytest.approx(1e-3, rel=0.05)
+
+
+def test_realized_curvature_sign_follows_the_face(mesh, top_strings):
+    polys = [np.stack([a, b]) for a, b in zip(A, B)]
+    k_top = realized_curvature(top_strings, A, B, polys)
+    bottom = inflate(mesh, StringSet(A, B, np.full(2, False), np.full(2, 0.2)))
+    k_bottom = realized_curvature(bottom, A, B, polys)
+    assert np.all(k_top < 0) and np.all(k_bottom > 0)
+    np.testing.assert_allclose(k_bottom, -k_top[::-1], rtol=1e-6)  # mirror symmetry of the mesh
+    # strings of l* = 200 mm over L = 300 mm bend the mattress strongly: same order as Equation 3
+    # (Delta = 0: 4.2 1/m); an isolated string concentrates its bend near the string (see validate)
+    k_eq3 = kappa1(0.2, 0.3, 0.0, D)
+    assert 0.5 * k_eq3 < k_bottom.min() and k_bottom.max() < 3 * k_eq3
+
+
+def test_surface_at_is_mid_surface_of_the_flat_mattress(mesh):
+    flat = inflate(mesh, None)
+    uv = np.array([[0.1, 0.1], [0.3, 0.15], [0.55, 0.29]])
+    mid, up = surface_at(flat, uv)
+    np.testing.assert_allclose(up, np.tile([0, 0, 1], (3, 1)), atol=1e-2)
+    assert np.ptp(mid[:, 2]) < 1e-3
