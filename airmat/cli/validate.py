@@ -1,4 +1,4 @@
-"""`airmat validate`: not implemented yet."""
+"""`airmat validate --out DIR`: the simulated cylindrical-specimen experiment against Equation 3."""
 
 from __future__ import annotations
 
@@ -6,9 +6,79 @@ from airmat.errors import InputError
 
 
 def add_parser(sub, parents):
-    p = sub.add_parser("validate", parents=parents, help="(not implemented yet)")
+    p = sub.add_parser("validate", parents=parents,
+                       help="simulate the paper's specimen experiment and compare with Equation 3 (Delta = 0)",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("--out", default="out/validate", metavar="DIR",
+                   help="output folder: validate.json, validate.csv, validate.png (default out/validate)")
+    p.add_argument("--l-over-L", dest="ratios", default="0.3,0.4,0.5,0.6,0.7,0.8,0.9",
+                   help="string length ratios (default 0.3,...,0.9)")
+    p.add_argument("--resolution-mm", type=float, default=40.0, help="mesh edge length (default 40)")
     p.set_defaults(func=run)
 
 
+def _write(points, folder, resolution_mm):
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from airmat.atomic import atomic_write_text
+    from calib.model import kappa1
+
+    rows = [{"l_over_L": p.l_over_L, "kappa_sim_per_m": round(p.kappa_sim, 4),
+             "kappa_sim_se_per_m": round(p.kappa_sim_se, 4), "kappa_strings_per_m": round(p.kappa_strings, 4),
+             "kappa_eq3_per_m": round(p.kappa_eq3, 4),
+             "converged": p.converged, "iterations": p.n_iter, "seconds": round(p.seconds, 2)} for p in points]
+    doc = {"experiment": "strip with parallel bottom strings, L = 300 mm, d = 70 mm, Delta = 0; kappa of the "
+                         "simulated mid-surface by calib's cylinder fit", "resolution_mm": resolution_mm,
+           "points": rows}
+    atomic_write_text(folder / "validate.json", json.dumps(doc, indent=2) + "\n")
+    atomic_write_text(folder / "validate.csv", "l_over_L,kappa_sim_per_m,kappa_sim_se_per_m,kappa_strings_per_m,"
+                      "kappa_eq3_per_m\n" +
+                      "".join(f"{r['l_over_L']},{r['kappa_sim_per_m']},{r['kappa_sim_se_per_m']},"
+                              f"{r['kappa_strings_per_m']},{r['kappa_eq3_per_m']}\n" for r in rows))
+    grid = np.linspace(0, 1, 201)
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    ax.plot(grid, kappa1(grid * 0.3, 0.3, 0.0, 0.07), "k-", label="Equation 3, Δ = 0, d = 70 mm")
+    ax.errorbar([p.l_over_L for p in points], [p.kappa_sim for p in points],
+                yerr=[2 * p.kappa_sim_se for p in points], fmt="o", color="C3",
+                label="simulated: cylinder fit of the mid-surface")
+    ax.plot([p.l_over_L for p in points], [p.kappa_strings for p in points], "s", color="C0",
+            label="simulated: circle through each string's ends and middle (mean)")
+    ax.set_xlabel("string length ratio l / L (L = 300 mm)")
+    ax.set_ylabel("curvature κ₁ (1/m)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title("airmat validate: inflation simulation against Equation 3")
+    fig.tight_layout()
+    fig.savefig(folder / "validate.png", dpi=110)
+    plt.close(fig)
+    return rows
+
+
 def run(args) -> int:
-    raise InputError("'airmat validate' is not implemented yet")
+    from airmat.atomic import staged_dir
+    from airmat.units import MM
+    from design.inflation.validation import validate_equation3
+
+    try:
+        ratios = [float(x) for x in args.ratios.split(",") if x.strip()]
+    except ValueError:
+        raise InputError(f"--l-over-L {args.ratios!r}: expected comma-separated numbers") from None
+    if not ratios or any(not (0 < r < 1) for r in ratios):
+        raise InputError(f"--l-over-L {args.ratios!r}: ratios must lie in (0, 1)")
+    if not (0 < args.resolution_mm <= 75):
+        raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
+    points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed)
+    with staged_dir(args.out) as tmp:
+        rows = _write(points, tmp, args.resolution_mm)
+    print("l/L   cylinder fit κ (1/m)   along strings κ (1/m)   Equation 3, Δ = 0 (1/m)")
+    for r in rows:
+        print(f"{r['l_over_L']:.2f}  {r['kappa_sim_per_m']:8.2f} ± {2 * r['kappa_sim_se_per_m']:.2f}"
+              f"       {r['kappa_strings_per_m']:8.2f}              {r['kappa_eq3_per_m']:8.2f}")
+    print(f"wrote validate.json, validate.csv, validate.png to {args.out}")
+    return 0

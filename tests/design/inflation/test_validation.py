@@ -1,0 +1,28 @@
+"""The simulated specimen experiment: parallel strings bend the strip more as l shrinks."""
+
+import numpy as np
+import pytest
+
+from design.inflation.validation import SpecimenLayout, specimen_strings, validate_equation3
+
+
+def test_specimen_strings_are_chained_staggered_and_inside():
+    lay = SpecimenLayout()
+    s = specimen_strings(lay, 0.2)
+    assert len(s) == lay.n_series * lay.n_rows
+    np.testing.assert_allclose(np.linalg.norm(s.b - s.a, axis=1), lay.L)
+    ends = np.concatenate([s.a, s.b])
+    assert ends.min() >= lay.margin - 1e-12
+    assert ends[:, 0].max() <= lay.width - lay.margin + 1e-12 and ends[:, 1].max() <= lay.height
+    first = s.a[:: lay.n_series, 0]
+    np.testing.assert_allclose(np.diff(first) % lay.L, 0.5 * lay.L)  # neighbouring rows staggered by L/2
+    assert not s.top.any()
+
+
+@pytest.mark.slow
+def test_curvature_grows_as_strings_shorten():
+    pts = validate_equation3((0.45, 0.8), resolution=0.05)
+    assert all(p.converged for p in pts)
+    short, long_ = pts
+    assert short.kappa_strings > long_.kappa_strings > 0
+    assert short.kappa_eq3 > long_.kappa_eq3
