@@ -21,6 +21,8 @@ def add_parser(sub, parents):
     p.add_argument("--preset", default="vault1",
                    help="target preset to design and inflate (default vault1)")
     p.add_argument("--points", type=int, default=100_000, help="points per synthetic scan (default 100000)")
+    p.add_argument("--resolution-mm", default="50",
+                   help="mesh edge length of the inflation check (default 50: coarse, to keep the demo short)")
     p.set_defaults(func=run)
 
 
@@ -71,7 +73,7 @@ def summary(out: Path, seconds: dict) -> str:
         f"d = {_iv(par['d_mm'], 'mm')} (truth {truth['d_mm']:g} mm), "
         f"sigma = {_iv(par['sigma_per_m'], '1/m', 2)}; "
         f"{'converged' if diag['converged'] else 'NOT CONVERGED'} ({diag['n_steps']} steps)",
-        f"  design       {des.get('target', {}).get('name', '?') if isinstance(des.get('target'), dict) else des.get('target', '?')} "
+        f"  design       {des['name']} "
         f"on {des['mattress']['width_mm']:.0f} x {des['mattress']['height_mm']:.0f} mm: "
         f"sigma {rep['sigma']['min']:.4f}/{rep['sigma']['avg']:.4f}/{rep['sigma']['max']:.4f} (min/avg/max), "
         f"|k1| {rep['kappa1_per_m']['avg']:.2f}/{rep['kappa1_per_m']['max']:.2f}, "
@@ -95,7 +97,8 @@ def run(args) -> int:
                        "--truth", str(out / "synth" / "truth.json")]),
         ("design", ["design", "--preset", args.preset, "--calibration", str(out / "calibration"),
                     "--out", str(out / "design")]),
-        ("inflate", ["inflate", str(out / "design"), "--out", str(out / "inflate")]),
+        ("inflate", ["inflate", str(out / "design"), "--out", str(out / "inflate"),
+                     "--resolution-mm", str(args.resolution_mm)]),
     ]
     seconds = run_steps(steps, args.seed)
     print(summary(out, seconds))

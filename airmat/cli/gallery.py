@@ -17,6 +17,7 @@ def add_parser(sub, parents):
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--out", default="out/gallery", metavar="DIR", help="output folder (default out/gallery)")
     p.add_argument("--presets", default=",".join(PRESETS), help="comma-separated presets (default: all five)")
+    p.add_argument("--resolution-mm", default="50", help="mesh edge length of the inflation check (default 50)")
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="calibration folder (default: the paper's values, UNCALIBRATED)")
     p.set_defaults(func=run)
@@ -49,7 +50,8 @@ def run(args) -> int:
         cal = ["--calibration", args.calibration] if args.calibration else []
         seconds = run_steps([
             ("design", ["design", "--preset", name, "--out", str(out / name / "design")] + cal),
-            ("inflate", ["inflate", str(out / name / "design"), "--out", str(out / name / "inflate")]),
+            ("inflate", ["inflate", str(out / name / "design"), "--out", str(out / name / "inflate"),
+                         "--resolution-mm", str(args.resolution_mm)]),
         ], args.seed)
         design = json.loads((out / name / "design" / "design.json").read_text())
         inflate = json.loads((out / name / "inflate" / "inflate.json").read_text())
