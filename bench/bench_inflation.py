@@ -1,0 +1,86 @@
+"""Benchmark: the inflation solver (Newton, sparse Hessian) against a Kangaroo-style baseline.
+
+Usage::
+
+    .venv/bin/python bench/bench_inflation.py                       # small mattress, vault1 design
+    .venv/bin/python bench/bench_inflation.py --resolutions 50,25 --baseline-seconds 120
+
+For each mesh resolution: the vault1 preset's string pattern (designed once,
+uncalibrated) on the small mattress (830 x 740 mm) is inflated by the
+project's solver (``design.inflation.simulate.inflate``: string ramp +
+Newton); then the Kangaroo-style baseline (``bench/kangaroo_baseline.py``)
+relaxes the same final model from the same start to the same relative force
+residual, with a time cap. Prints a Markdown table. Targets: small mattress
+at 20 mm converged in < 10 s, at least 10x faster than the baseline.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+import numpy as np  # noqa: E402
+
+from airmat.units import MM  # noqa: E402
+from design.inflation.design_folder import read_design_folder  # noqa: E402
+from design.inflation.mesh import build_mattress_mesh  # noqa: E402
+from design.inflation.model import Parameters, build_model  # noqa: E402
+from design.inflation.simulate import inflate, start_positions  # noqa: E402
+from design.inflation.solver import rigid_pins  # noqa: E402
+from kangaroo_baseline import kangaroo_solve  # noqa: E402
+
+
+def _design(preset: str, folder: Path):
+    from airmat.cli import main
+
+    if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:
+        raise SystemExit("design failed")
+    return read_design_folder(folder)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--preset", default="vault1")
+    ap.add_argument("--resolutions", default="50,40", help="mesh edge lengths in mm (default 50,40)")
+    ap.add_argument("--baseline-seconds", type=float, default=120.0, help="time cap of the baseline")
+    ap.add_argument("--quick", action="store_true", help="one coarse resolution, 30 s baseline cap")
+    args = ap.parse_args(argv)
+    res_list = [60.0] if args.quick else [float(r) for r in args.resolutions.split(",")]
+    cap = 30.0 if args.quick else args.baseline_seconds
+    with tempfile.TemporaryDirectory() as tmp:
+        design = _design(args.preset, Path(tmp) / "design")
+    strings = design.strings()
+    print(f"{args.preset}: {len(strings)} strings on {design.width / MM:.0f} x {design.height / MM:.0f} mm\n")
+    print("| resolution (mm) | vertices | Newton: time (s) | Newton iterations | converged | residual "
+          "| baseline: time (s) | baseline iterations | baseline residual | reached | speed-up "
+          "| max distance of the two solutions (mm) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for res in res_list:
+        mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=res * MM)
+        t0 = time.perf_counter()
+        newton = inflate(mesh, strings)
+        t_newton = time.perf_counter() - t0
+        model = build_model(mesh, strings, Parameters())
+        fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+        base = kangaroo_solve(model, start_positions(mesh, strings), fixed_dofs=fixed,
+                              tol=newton.residual if newton.converged else 1e-6, time_limit=cap)
+        gap = np.linalg.norm(base.xyz - newton.xyz, axis=1).max() / MM
+        speed = (f"{base.seconds / t_newton:.1f}x" if base.converged
+                 else f"> {base.seconds / t_newton:.1f}x")
+        print(f"| {res:g} | {mesh.n_vertices} | {t_newton:.1f} | {newton.n_iter} | {newton.converged} "
+              f"| {newton.residual:.1e} | {base.seconds:.1f} | {base.n_iter} | {base.residual:.1e} "
+              f"| {base.converged} | {speed} | {gap:.1f} |", flush=True)
+    print(f"\nbaseline: Kangaroo-style goal averaging with momentum (damping 0.9), same U_B and start, "
+          f"stopped at the Newton run's residual or after {cap:g} s.")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
