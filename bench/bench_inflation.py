@@ -38,10 +38,14 @@ from kangaroo_baseline import kangaroo_solve  # noqa: E402
 
 
 def _design(preset: str, folder: Path):
+    import contextlib
+    import io
+
     from airmat.cli import main
 
-    if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:
-        raise SystemExit("design failed")
+    with contextlib.redirect_stdout(io.StringIO()):
+        if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:
+            raise SystemExit("design failed")
     return read_design_folder(folder)
 
 
