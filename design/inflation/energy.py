@@ -96,25 +96,31 @@ class Model:
 def spring_profile(stretch: np.ndarray, width, compression: float) -> tuple:
     """Energy/k, force/k and stiffness/k of a spring softer in compression, with a smooth switch.
 
-    The force is ``f(s) = s`` for ``s >= w`` and ``c s`` for ``s <= -w``
-    (``c`` the compression ratio: 0 for a string that goes slack, 1 for a
-    plain linear spring), blended by a quadratic over ``|s| < w`` so that
-    the force and its derivative are continuous: Newton's method does not
-    cycle on springs switching between slack and taut. ``w = 0`` gives the
-    sharp switch (``u_m`` of Equation 5 for ``c = 0``).
+    The stiffness is 1 in tension and ``c`` (the compression ratio: 0 for a
+    string, which goes slack, 1 for a plain linear spring) in compression,
+    changing linearly over a stretch interval of length ``2 w`` so that the
+    force and its derivative are continuous (Newton's method does not cycle
+    on springs switching between slack and taut). The interval is
+    ``[0, 2w]`` for a string (``c = 0``: no force when slack, the taut
+    string acts from ``w`` longer than its rest length) and ``[-2w, 0]``
+    otherwise (exact in tension, a compressive force bounded by about
+    ``k w`` plus ``c k |s|``). ``w = 0`` gives the sharp switch (``u_m`` of
+    Equation 5 for ``c = 0``).
     """
     c = float(compression)
-    w = np.broadcast_to(np.asarray(width, float), stretch.shape)
     if c == 1.0:
         return 0.5 * stretch ** 2, stretch, np.ones_like(stretch)
-    wsafe = np.maximum(w, 1e-300)
-    mid = np.abs(stretch) < w
-    taut = stretch >= w
-    q = (stretch + w) / (2 * wsafe)                      # 0 .. 1 across the blend
-    f = np.where(taut, stretch, np.where(mid, c * stretch + (1 - c) * w * q ** 2, c * stretch))
-    df = np.where(taut, 1.0, np.where(mid, c + (1 - c) * q, c))
-    e = np.where(taut, 0.5 * stretch ** 2 + (1 - c) * w ** 2 / 6.0,
-                 0.5 * c * stretch ** 2 + np.where(mid, (1 - c) * (stretch + w) ** 3 / (12 * wsafe), 0.0))
+    w = np.broadcast_to(np.asarray(width, float), stretch.shape)
+    ws = np.maximum(w, 1e-300)
+    z = stretch + 2.0 * w if c > 0 else stretch             # position above the start of the switch
+    f0 = -w * (1.0 + c) if c > 0 else np.zeros_like(w)      # force at the start: f(0) = 0 for c > 0
+    below, above = z <= 0, z >= 2.0 * w
+    ramp_f = np.where(above, z - w, np.where(below, 0.0, z ** 2 / (4 * ws)))
+    ramp_e = np.where(above, 0.5 * z ** 2 - w * z + 2.0 * w ** 2 / 3.0,
+                      np.where(below, 0.0, z ** 3 / (12 * ws)))
+    df = np.where(above, 1.0, np.where(below, c, c + (1.0 - c) * z / (2 * ws)))
+    f = f0 + c * z + (1.0 - c) * ramp_f
+    e = f0 * z + 0.5 * c * z ** 2 + (1.0 - c) * ramp_e
     return e, f, df
 
 

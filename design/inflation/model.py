@@ -55,13 +55,15 @@ class Parameters:
 
     pressure: float = 2000.0
     reference_pressure: float = 2000.0
-    membrane: float = 1e3
+    membrane: float = 200.0
     pins: float = 1e3
     strings: float = 1e3
     smoothing: float = 1e-2
     pin_every: int = 1
     clamp_width: float = 2.5e-4
-    compression: float = 1e-2
+    compression: float = 1e-3
+    wrinkle_width: float = 1e-3
+    pin_compression: float = 1.0
 
 
 def stiffnesses(mesh: MattressMesh, params: Parameters) -> dict:
@@ -92,8 +94,9 @@ def build_model(mesh: MattressMesh, strings: StringSet | None, params: Parameter
     rest = np.linalg.norm(mesh.vertices[e[:, 1]] - mesh.vertices[e[:, 0]], axis=1)
     groups = [Springs(idx=e, coef=np.tile([-1.0, 1.0], (len(e), 1)), rest=rest,
                       stiffness=np.full(len(e), k["k1"]), compression=params.compression, name="B1",
-                      smooth=params.clamp_width * rest),
-              internal_strings(mesh, stiffness=k["k3"], every=params.pin_every, smooth=params.clamp_width)]
+                      smooth=params.wrinkle_width * rest),
+              internal_strings(mesh, stiffness=k["k3"], every=params.pin_every,
+                               compression=params.pin_compression, smooth=params.clamp_width)]
     if strings is not None and len(strings):
         groups.append(attach_strings(mesh, strings,
                                      stiffness=k["EA4"] / np.maximum(strings.rest, mesh.thickness),

@@ -182,6 +182,9 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
             r = None
         n_iter += r.n_iter if r is not None else 0
         if r is None or (not r.converged and not last):
+            if halvings >= 6:
+                raise ConvergenceError(f"the string ramp stalled at {lam:.0%} of the contraction",
+                                       stage=lam)
             halvings += 1
             step *= 0.5
             log.info("inflation stage to %.0f%% failed; retrying with a step of %.1f%%", 100 * nxt, 100 * step)

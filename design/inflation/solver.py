@@ -1,13 +1,14 @@
 """Newton's method for the equilibrium of U_B (min over vertex positions).
 
-Each iteration assembles the sparse Hessian (spring blocks projected PSD per
-element, exact pressure term, constant smoothing) on a fixed CSR pattern,
-solves ``(H + mu D) dx = -g`` with a sparse LU (scipy SuperLU), and
-backtracks on the energy (Armijo). ``mu`` (a Levenberg–Marquardt shift on
-the diagonal D of H) is raised when the matrix is singular or the step is
-not a descent direction (the pressure term makes H indefinite away from
-equilibrium) and lowered again after good steps. Six degrees of freedom of
-three vertices are pinned to remove the rigid motions.
+Each iteration assembles the sparse Hessian (exact, or with every spring
+block projected PSD; exact pressure term; constant smoothing) on a fixed CSR
+pattern and solves ``(H + mu I) dx = -g`` with a sparse LU (scipy SuperLU
+with diagonal pivots, whose pivot signs tell whether the matrix is positive
+definite). ``mu`` is a Levenberg–Marquardt trust-region shift: raised until
+the matrix is positive definite (compressed edges and the pressure make H
+indefinite away from equilibrium), raised again when a step does not lower
+U_B as the quadratic model predicted, lowered after good steps. Six degrees
+of freedom of three vertices are pinned to remove the rigid motions.
 
 Stopping rule: ``max |grad| / max_i |p dVol/dx_i| < tol`` -- the largest
 out-of-balance force relative to the largest pressure force on a vertex.
@@ -105,13 +106,13 @@ def _factor(a: sp.csr_matrix):
     return lu, pd
 
 
-def _newton_direction(h: sp.csr_matrix, g: np.ndarray, mu: float, mu_min: float):
-    """Solve (H + mu I) dx = -g with the smallest tried mu making the matrix positive definite.
+def _shifted_step(h: sp.csr_matrix, g: np.ndarray, mu: float, mu_min: float):
+    """Solve (H + mu I) dx = -g with mu raised (x10) until the matrix is positive definite.
 
     Returns (dx, mu, n_factorizations).
     """
     eye = sp.identity(h.shape[0], format="csr")
-    for k in range(1, 16):
+    for k in range(1, 20):
         lu, pd = _factor(h + mu * eye if mu > 0 else h)
         if pd:
             dx = lu.solve(-g)
@@ -136,21 +137,6 @@ def _check_sane(model: Model, x: np.ndarray, e: float, it: int) -> None:
         raise ConvergenceError(f"diverged at iteration {it}: an edge is stretched by {strain:.0%} "
                                f"(> {MAX_STRAIN:.0%}); the pressure is far too high for the membrane "
                                f"stiffness", iteration=it, strain=strain)
-
-
-def _line_search(model: Model, x, dx_full, e0, slope, free):
-    """Backtracking on U_B (Armijo); returns (x_new, e_new, step) or None."""
-    # energies ~ p Vol are large and their round-off can exceed the predicted decrease near the solution
-    noise = 1e-13 * (abs(e0) + model.pressure * 1e-6)
-    t = 1.0
-    for _ in range(30):
-        xn = x.copy()
-        xn.reshape(-1)[free] += t * dx_full
-        en = energy(model, xn)
-        if np.isfinite(en) and (en <= e0 + 1e-4 * t * slope or abs(en - e0) <= noise):
-            return xn, en, t
-        t *= 0.5
-    return None
 
 
 def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max_iter: int = 200,
@@ -196,13 +182,13 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
     asm = assembler or build_assembler(block_pattern(model), model.n_vertices, fixed_dofs)
     q_blocks = smoothing_blocks(model)
     free = asm.free
-    mu, history, converged, message, n_fact = 0.0, [], False, "", 0
-    mu_min = 1e-6 * float(np.mean(np.abs(asm.assemble(hessian_blocks(model, x) + [q_blocks]).diagonal())))
-    e = energy(model, x)
-    it = 0
+    history, converged, message, n_fact, it = [], False, "", 0, 0
+    h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
+    mu_min = 1e-8 * float(np.mean(np.abs(h.diagonal())))
+    mu = 0.0
+    e, g = energy_and_gradient(model, x)
     with progress(total=max_iter, desc=desc, unit="it") as bar:
         while True:
-            e, g = energy_and_gradient(model, x)
             _check_sane(model, x, e, it)
             gf = g.reshape(-1)[free]
             res = _residual(model, x, gf)
@@ -215,21 +201,32 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
                 message = f"not converged after {it} iterations: residual {res:.3g} >= {tol:g}"
                 break
             h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
-            dx, mu, nf = _newton_direction(h, gf, mu, mu_min)
-            n_fact += nf
-            longest = float(np.max(np.linalg.norm(_full(dx, free, x.shape), axis=1)))
-            if longest > max_move:
-                dx *= max_move / longest
-            step = _line_search(model, x, dx, e, float(gf @ dx), free)
-            if step is None:
-                mu = max(10.0 * mu, mu_min)
-                if mu > 1e12 * mu_min:
-                    message = f"stalled at iteration {it}: no energy decrease along the Newton direction"
+            for _ in range(30):                        # trust-region loop: shrink until the step pays
+                dx, mu, nf = _shifted_step(h, gf, mu, mu_min)
+                n_fact += nf
+                longest = float(np.max(np.linalg.norm(_full(dx, free, x.shape), axis=1)))
+                cap = min(1.0, max_move / longest) if longest > 0 else 1.0
+                dx *= cap
+                predicted = -(gf @ dx + 0.5 * dx @ (h @ dx))
+                xn = x.copy()
+                xn.reshape(-1)[free] += dx
+                en, gn = energy_and_gradient(model, xn)
+                actual = e - en
+                noise = 1e-12 * (abs(e) + abs(en))
+                rho = actual / predicted if predicted > noise else (1.0 if abs(actual) <= noise else -1.0)
+                if np.isfinite(en) and rho > 1e-4:
                     break
+                mu = max(4.0 * mu, mu_min * 1e2)
             else:
-                x, e, t = step
-                log.debug("iteration %d: U=%.12g J, residual %.3e, step %.3g, shift %.1e", it, e, res, t, mu)
-                mu = mu / 3.0 if t == 1.0 else mu
+                message = f"stalled at iteration {it}: no energy decrease even with a large shift"
+                break
+            log.debug("iteration %d: U=%.12g J, residual %.3e, rho %.3g, shift %.1e, cap %.2g",
+                      it, en, res, rho, mu, cap)
+            x, e, g = xn, en, gn
+            if rho < 0.25:
+                mu = max(4.0 * mu, mu_min * 1e2)
+            elif rho > 0.75 and cap == 1.0:
+                mu = mu / 3.0 if mu > mu_min * 1e2 else 0.0
             it += 1
             bar.update(1)
     if not converged:

@@ -121,8 +121,9 @@ def attach_strings(mesh: MattressMesh, strings: StringSet, *, stiffness: np.ndar
                    compression=0.0, name="B4", smooth=smooth * np.maximum(strings.rest, mesh.thickness))
 
 
-def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1, smooth: float = 0.0) -> Springs:
-    """Loop pins (term B3): tension-only strings of length d joining top[g] and bottom[g].
+def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1, compression: float = 1.0,
+                     smooth: float = 0.0) -> Springs:
+    """Loop pins (term B3): springs of rest length d joining top[g] and bottom[g].
 
     Parameters
     ----------
@@ -131,6 +132,9 @@ def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1, sm
         Spring constant of each pin (N/m).
     every : int
         Keep every ``every``-th grid point along u and v (1: all of them).
+    compression : float
+        Stiffness ratio when shorter than d: 1 keeps their length both ways
+        (the Length goal of the paper), 0 lets them go slack.
     smooth : float
         Width of the smoothed slack/taut onset, relative to d.
     """
@@ -140,4 +144,4 @@ def internal_strings(mesh: MattressMesh, *, stiffness: float, every: int = 1, sm
     idx = np.column_stack([mesh.top[g], mesh.bottom[g]])
     return Springs(idx=idx, coef=np.tile([1.0, -1.0], (len(g), 1)),
                    rest=np.full(len(g), mesh.thickness), stiffness=np.full(len(g), float(stiffness)),
-                   compression=0.0, name="B3", smooth=smooth * mesh.thickness)
+                   compression=compression, name="B3", smooth=smooth * mesh.thickness)
