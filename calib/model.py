@@ -82,7 +82,8 @@ def _solve_theta(l, L, delta, d):
     lstar = l + 2.0 * delta
 
     def g(theta, lstar, L, d):  # increasing in theta on (theta_min, pi]
-        s, c = np.sin(theta / 2.0), np.cos(theta / 2.0)
+        s = np.sin(0.5 * theta)
+        c = np.sqrt(np.maximum(1.0 - s * s, 0.0))  # theta/2 in [0, pi/2]: one sine serves both
         ls = _lstar(theta, L, d)
         return ls * s - lstar, d * s + 0.5 * ls * c
 
@@ -114,6 +115,8 @@ def bend_angle(l, L, delta, d):
     l, L, delta, d = np.broadcast_arrays(l, L, delta, d)
     theta = np.full(l.shape, np.pi)
     bent = l + 2.0 * delta < L
+    if bent.all():  # the common case (an MCMC batch): no gather/scatter copies
+        return _solve_theta(l, L, delta, d)
     if np.any(bent):
         theta[bent] = _solve_theta(l[bent], L[bent], delta[bent], d[bent])
     return theta
