@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-BENCHES = ["bench_cylinder.py", "bench_calibration.py",
+BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py",
            "bench_design.py", "bench_inflation.py"]
 
 

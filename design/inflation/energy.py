@@ -3,20 +3,21 @@
 U_B = U_B1 (edge springs) + U_B2 (-p Vol) + U_B3 (internal strings)
 + U_B4 (external clamp strings) + U_B5 (Laplacian smoothing).
 
-U_B1, U_B3 and U_B4 are all springs ``1/2 k (|r| - r0)^2`` on a vector
-``r = sum_k c_k x_{i_k}`` that combines a few vertices: an edge is
-``x_j - x_i``; an external string joins two points fixed on the face by
-barycentric coordinates, ``r = sum_a w_a x_a - sum_b w_b x_b`` (six
-vertices). One vectorized kernel evaluates every spring group. Springs may
-be tension-only (``u_m`` of Equation 5, the ClampLength goal): zero energy
-while ``|r| < r0``. The internal strings (loop pins) are tension-only too:
-a pin is a string, it can go slack where the face folds inward.
+U_B1, U_B3 and U_B4 are all springs on a vector ``r = sum_k c_k x_{i_k}``
+that combines a few vertices: an edge is ``x_j - x_i``; an external string
+joins two points fixed on the face by barycentric coordinates,
+``r = sum_a w_a x_a - sum_b w_b x_b`` (six vertices). One vectorized kernel
+evaluates every spring group. A spring is ``1/2 k (|r| - r0)^2`` in
+tension and may be softer in compression (:func:`spring_profile`): a string
+is tension-only (``u_m`` of Equation 5, the ClampLength goal), a membrane
+edge may wrinkle; the switch is smoothed over a small stretch so that
+forces and stiffnesses are continuous.
 
 Hessians come as dense 3 × 3 blocks per vertex pair, assembled into a sparse
-matrix by :mod:`design.inflation.assembly`. The spring blocks are
-projected per element to be positive semi-definite (the transverse term
-``k (1 - r0/|r|)`` is clamped at 0 for a compressed spring); the pressure
-term ``-p Vol`` is exact (indefinite: the solver shifts if needed).
+matrix by :mod:`design.inflation.assembly`: exact, or with each spring block
+projected to be positive semi-definite (``project=True``: the transverse
+term ``f(|r|)/|r|`` clamped at 0 for a compressed spring); the pressure term
+``-p Vol`` is always exact (indefinite: the solver shifts when needed).
 All quantities are SI: metres, newtons, pascals, joules.
 """
 
@@ -125,7 +126,7 @@ def spring_profile(stretch: np.ndarray, width, compression: float) -> tuple:
 
 
 def spring_terms(x: np.ndarray, s: Springs, *, gradient: bool = True, hessian: bool = False,
-                 project: bool = True):
+                 project: bool = False):
     """Energy, gradient and Hessian blocks of a spring group.
 
     Parameters
@@ -219,12 +220,21 @@ def volume_terms(x: np.ndarray, faces: np.ndarray, *, gradient: bool = True, hes
     return vol, grad, blocks
 
 
-def smoothing_matrix(grid_faces: np.ndarray, top: np.ndarray, bottom: np.ndarray,
+def smoothing_matrix(uv_grid: np.ndarray, grid_faces: np.ndarray, top: np.ndarray, bottom: np.ndarray,
                      n_vertices: int, weight: float) -> sp.csr_matrix:
-    """``k5 A^T A`` for U_B5, with A the uniform Laplacian of each face separately.
+    """``k5 A^T A`` for U_B5, with ``(A x)_i = x_i - x_i,avg`` on each face separately.
+
+    ``x_i,avg`` is the average of the neighbours of vertex i weighted by the
+    cotangent weights of the flat mesh, for the interior vertices of each
+    face only: on the flat mattress every ``A x`` row is exactly 0 (linear
+    precision), so U_B5 vanishes at rest and pulls neither the boundary
+    inward nor the faces together; ``A (R x + t) = R A x``, so U_B5 does not
+    change under rigid motions.
 
     Parameters
     ----------
+    uv_grid : ndarray of shape (g, 2)
+        Ω coordinates of the grid points (m).
     grid_faces : ndarray of shape (t, 3)
         Triangulation of Ω on grid indices.
     top, bottom : ndarray of shape (g,)
@@ -238,16 +248,17 @@ def smoothing_matrix(grid_faces: np.ndarray, top: np.ndarray, bottom: np.ndarray
     scipy.sparse.csr_matrix of shape (n, n)
         Constant Hessian (per coordinate) of U_B5 (N/m).
     """
+    import igl
+
     g = len(top)
-    e = np.concatenate([grid_faces[:, [0, 1]], grid_faces[:, [1, 2]], grid_faces[:, [2, 0]]])
-    adj = sp.coo_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])),
-                        shape=(g, g)).tocsr()
-    adj.data[:] = 1.0                                          # duplicates summed: reset to 1
-    w = sp.diags(1.0 / np.asarray(adj.sum(axis=1)).ravel()) @ adj
-    lap = sp.identity(g, format="csr") - w
+    cot = sp.csr_matrix(igl.cotmatrix(np.column_stack([uv_grid, np.zeros(g)]), grid_faces))
+    boundary = np.unique(igl.boundary_facets(grid_faces)[0])
+    interior = np.setdiff1d(np.arange(g), boundary)
+    lap = sp.diags(-1.0 / cot.diagonal()) @ cot                  # rows: x_i - weighted average
+    lap = lap[interior]
     both = np.concatenate([top, bottom])
-    perm = sp.coo_matrix((np.ones(2 * g), (both, np.arange(2 * g))), shape=(n_vertices, 2 * g)).tocsr()
-    a = perm @ sp.block_diag([lap, lap], format="csr") @ perm.T
+    rows = sp.block_diag([lap, lap], format="csr")
+    a = rows @ sp.coo_matrix((np.ones(2 * g), (np.arange(2 * g), both)), shape=(2 * g, n_vertices)).tocsr()
     return (weight * (a.T @ a)).tocsr()
 
 
@@ -282,7 +293,7 @@ def pressure_forces(model: Model, x: np.ndarray) -> np.ndarray:
     return model.pressure * volume_terms(x, model.faces)[1]
 
 
-def hessian_blocks(model: Model, x: np.ndarray, *, project: bool = True) -> list:
+def hessian_blocks(model: Model, x: np.ndarray, *, project: bool = False) -> list:
     """Hessian blocks of every non-constant term, in the order of :func:`block_pattern`.
 
     Parameters

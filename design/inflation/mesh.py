@@ -2,9 +2,10 @@
 
 The top and bottom faces are the same structured triangulation of
 Ω = [0, W] × [0, H], a thickness d apart (top at z = +d/2, bottom at
-z = -d/2), joined along the boundary by one band of side triangles. Every
-vertex is a top or a bottom vertex: ``top[g]`` and ``bottom[g]`` are the two
-copies of grid point ``g`` and share its Ω coordinates ``uv[top[g]]``.
+z = -d/2), joined along the boundary by one band of side quads, each split
+into four triangles around a vertex at its centre (z = 0). ``top[g]`` and
+``bottom[g]`` are the two copies of grid point ``g`` and share its Ω
+coordinates ``uv[top[g]]``; the side-wall vertices come last.
 
 The grid has an even number of cells along each side and its diagonals
 follow the "union jack" pattern (each points toward the centre of Ω), so the
@@ -23,8 +24,10 @@ from airmat.errors import InputError
 
 __all__ = ["MattressMesh", "build_mattress_mesh", "grid_shape", "MAX_VERTICES"]
 
-#: Largest mesh the solver accepts (both faces): the sparse LU of the Newton
-#: system needs roughly 2.5 kB per vertex-DOF of fill, so 2e5 vertices is ~1.5 GB.
+#: Largest mesh the solver accepts (both faces): the Cholesky factor of the
+#: Newton system had 25 M non-zeros for 21 642 vertices (large mattress, 20 mm),
+#: ~14 kB per vertex with its indices and growing like n log n: 2e5 vertices is
+#: ~4 GB, and minutes per factorization.
 MAX_VERTICES = 200_000
 
 
@@ -41,7 +44,8 @@ class MattressMesh:
     faces : ndarray of shape (m, 3)
         Triangles, outward oriented (the enclosed volume is positive).
     uv : ndarray of shape (n, 2)
-        Ω coordinates of every vertex (m).
+        Ω coordinates of every vertex (m); a side-wall vertex has those of
+        the middle of its boundary edge.
     top, bottom : ndarray of shape (g,)
         Vertex index of grid point ``g`` on the top and on the bottom face.
     grid_shape : tuple of int
@@ -134,14 +138,14 @@ def build_mattress_mesh(width: float, height: float, thickness: float, *,
     --------
     >>> m = build_mattress_mesh(0.8, 0.4, 0.07, resolution=0.1)
     >>> m.grid_shape, m.n_vertices
-    ((9, 5), 90)
+    ((9, 5), 114)
     """
     for name, x in (("width", width), ("height", height), ("thickness", thickness),
                     ("resolution", resolution)):
         if not (np.isfinite(x) and x > 0):
             raise InputError(f"mattress {name} must be a positive length, got {x!r} m", **{name: x})
     nx, ny = grid_shape(width, height, resolution)
-    n_est = 2 * nx * ny
+    n_est = 2 * nx * ny + 2 * (nx + ny - 2)
     if n_est > max_vertices:
         raise InputError(f"resolution {resolution * 1e3:.4g} mm is too fine for a {width * 1e3:.0f} x "
                          f"{height * 1e3:.0f} mm mattress: {n_est} vertices, limit {max_vertices} "
@@ -156,10 +160,16 @@ def build_mattress_mesh(width: float, height: float, thickness: float, *,
     tri = _grid_triangles(nx, ny)
     loop = _boundary_loop(nx, ny)
     p, q = loop, np.roll(loop, -1)
-    side = np.concatenate([np.c_[bottom[p], bottom[q], top[q]], np.c_[bottom[p], top[q], top[p]]])
+    # each side-wall quad gets a vertex at its centre and four triangles: the band is then
+    # symmetric under both mirrors of Ω and under top <-> bottom, like the faces
+    c = 2 * ng + np.arange(len(loop))
+    bp, bq, tp, tq = bottom[p], bottom[q], top[p], top[q]
+    side = np.concatenate([np.c_[bp, bq, c], np.c_[bq, tq, c], np.c_[tq, tp, c], np.c_[tp, bp, c]])
+    uv_side = 0.5 * (uv_grid[p] + uv_grid[q])
+    vertices = np.concatenate([vertices, np.column_stack([uv_side, np.zeros(len(loop))])])
     faces = np.concatenate([top[tri], bottom[tri][:, ::-1], side]).astype(np.int64)
     return MattressMesh(width=float(width), height=float(height), thickness=float(thickness),
-                        vertices=vertices, faces=faces, uv=np.concatenate([uv_grid, uv_grid]),
+                        vertices=vertices, faces=faces, uv=np.concatenate([uv_grid, uv_grid, uv_side]),
                         top=top, bottom=bottom, grid_shape=(nx, ny), grid_faces=tri.astype(np.int64),
                         edges=np.asarray(igl.edges(faces), dtype=np.int64))
 

@@ -1,24 +1,43 @@
 """Stiffnesses of U_B in nondimensional form, and the assembled :class:`~design.inflation.energy.Model`.
 
-Every stiffness is a multiple of a *reference* pressure ``p0`` times a length
-of the problem, chosen so that each element's strain under its pressure load
-is about ``1 / c`` (``c`` the nondimensional coefficient, default 1e3):
+Every stiffness is a multiple of a *reference* pressure ``p0`` (a material
+constant, not the inflation pressure ``p``) times lengths of the problem
+(thickness d, mesh spacing a), with a nondimensional coefficient:
 
-- B1 edges: ``k1 = c1 p0 d``. An edge of length a carries the face tension
-  T ~ p d / 2 (the side band holds the two faces together) over a width a:
-  strain = T a / (k1 a) = p / (2 c1 p0) ~ 5e-4.
-- B3 pins: ``k3 = c3 p0 a² / d``. A pin holds the pressure on its cell,
-  p a²: strain = p a² / (k3 d) = p / (c3 p0) ~ 1e-3.
-- B4 strings: ``k4 = c4 p0 d² / l*`` (axial stiffness E A = c4 p0 d²). A
-  string balances the pressure moment on its strip, F ~ p d μ2 with
-  μ2 ~ 0.1 m: strain ~ 1.4e-3.
-- B5 smoothing: ``k5 = c5 p0 a``, c5 = 1e-2: the Laplacian force of a
-  bend κ, ~ k5 a² κ, is ~ c5 a κ ≈ 2e-3 of the pressure force p a² per
-  vertex at κ = 6 /m -- a regulariser of the folds, not a bending stiffness.
+- B1 membrane edges, ``k1 = c1 p0 d`` (c1 = 200). An edge of length a
+  carries the face tension T ~ p d / 2 over a width a: tensile strain
+  T / k1 = p / (2 c1 p0) = 2.5e-3 at p = p0 -- nearly inextensible.
+  In compression the stiffness drops to ``c k1`` (c = 1e-2) over a strain
+  of ``2 w`` (w = 5e-4): a wrinkling (tension-field) membrane, which lets the
+  concave face shorten without resolving its folds. The paper's B1 keeps
+  lengths both ways, so a bend must fold the concave face into the mattress
+  (its Fig. 2/4 wrinkle), a few mesh edges deep. That literal variant is
+  ``Parameters(compression=1, pin_compression=0)`` (pins that go slack where
+  the face folds in). Measured with the same solver: vault1 at 50 mm, 181
+  Newton iterations vs 54 and 45.6 mm RMS deviation from Ŝ vs 26.4 mm;
+  the specimen strip at l/L = 0.5, 40 mm: 580 iterations vs ~60, κ along
+  the strings 9.1 vs 8.3 1/m (Equation 3 with Δ = 0: 6.6 1/m).
+- B3 loop pins, ``k3 = c3 p0 a² / d`` (c3 = 1e3): each pin holds p a²,
+  strain p / (c3 p0) = 1e-3. Two-sided (the paper's Length goal) by default.
+- B4 strings, axial stiffness ``E A = c4 p0 d²`` (c4 = 1e3), ``k4 = E A / l*``:
+  tension-only with a smooth onset (clamp_width = 2.5e-4 of the length).
+- B5 smoothing, ``k5 = c5 p0 d³ / a²`` (c5 = 5): ``1/2 k5 |x_i - x_i,avg|²``
+  over the interior vertices of each face (cotangent weights of the flat
+  mesh, so it is exactly 0 at rest and rigid-motion invariant). Since
+  ``|x_i - x_i,avg| ~ a² κ / 4``, its energy density is ``k5 a² κ² / 32``
+  per face: a bending stiffness ``EI ~ c5 p0 d³ / 16`` independent of the
+  resolution. A wrinkling membrane alone has no bending stiffness and the
+  bend then localises into kinks at arbitrary places (non-unique, and the
+  solver stalls); c5 = 5 keeps the bend smooth. It is not negligible: at
+  κ = 5 1/m both faces carry ~2 N m/m, ~40 % of the moment p0 d² / 2 at which
+  a face goes slack; but the strings are ~10³ times stiffer axially, so their
+  lengths still set the shape (on vault1 they end within 0.35 % of l*).
+  Measured on vault1 at 50 mm: RMS deviation from Ŝ 32.6 / 26.4 / 25.0 mm
+  for c5 = 2.5 / 5 / 10.
 
-The membrane is therefore nearly inextensible at the reference pressure, and
-the inflated shape barely depends on the actual pressure ``p``: doubling it
-doubles the strains (still ~1e-3) but not the geometry (tested).
+The inflated shape therefore barely depends on the actual pressure ``p``
+(strains scale with p / p0; vault1 at 50 mm: 26.2 / 26.4 / 27.5 mm RMS
+deviation at p = 1 / 2 / 4 kPa; tested).
 """
 
 from __future__ import annotations
@@ -51,6 +70,13 @@ class Parameters:
     clamp_width : float
         Smoothed slack/taut onset of the pins and strings, relative to their
         rest length (a quarter of their strain under load).
+    compression : float
+        Stiffness ratio of a membrane edge in compression (1: the literal
+        two-sided B1 of Equation 5).
+    wrinkle_width : float
+        Strain over which a membrane edge switches to its compression stiffness.
+    pin_compression : float
+        Stiffness ratio of a pin shorter than d (1: two-sided, 0: a slack string).
     """
 
     pressure: float = 2000.0
@@ -58,11 +84,11 @@ class Parameters:
     membrane: float = 200.0
     pins: float = 1e3
     strings: float = 1e3
-    smoothing: float = 1e-2
+    smoothing: float = 5.0
     pin_every: int = 1
     clamp_width: float = 2.5e-4
-    compression: float = 1e-3
-    wrinkle_width: float = 1e-3
+    compression: float = 1e-2
+    wrinkle_width: float = 5e-4
     pin_compression: float = 1.0
 
 
@@ -71,7 +97,7 @@ def stiffnesses(mesh: MattressMesh, params: Parameters) -> dict:
     p0, d = params.reference_pressure, mesh.thickness
     a = float(np.mean(mesh.spacing))
     return {"k1": params.membrane * p0 * d, "k3": params.pins * p0 * a * a / d,
-            "EA4": params.strings * p0 * d * d, "k5": params.smoothing * p0 * a}
+            "EA4": params.strings * p0 * d * d, "k5": params.smoothing * p0 * d ** 3 / a ** 2}
 
 
 def build_model(mesh: MattressMesh, strings: StringSet | None, params: Parameters = Parameters()) -> Model:
@@ -101,6 +127,6 @@ def build_model(mesh: MattressMesh, strings: StringSet | None, params: Parameter
         groups.append(attach_strings(mesh, strings,
                                      stiffness=k["EA4"] / np.maximum(strings.rest, mesh.thickness),
                                      smooth=params.clamp_width))
-    q = smoothing_matrix(mesh.grid_faces, mesh.top, mesh.bottom, mesh.n_vertices, k["k5"])
+    q = smoothing_matrix(mesh.uv[mesh.top], mesh.grid_faces, mesh.top, mesh.bottom, mesh.n_vertices, k["k5"])
     return Model(n_vertices=mesh.n_vertices, faces=mesh.faces, springs=tuple(groups),
                  pressure=float(params.pressure), smoothing=q)

@@ -6,12 +6,11 @@ contracts to its calculated length l"), in stages: the rest lengths go
 from L to l* by continuation, each stage solved loosely, the last one to the
 full tolerance. A stage that fails is retried with half the step.
 
-The start shape is the flat mattress with, under each string, a shallow
-inward dent of the string's face (a half sine along the string, amplitude a
-fraction of the mesh resolution). The flat state with a compressed face
-is an equilibrium too (a saddle): the dent seeds the inward wrinkle the
-paper describes (Fig. 2 and 4) at the middle of each string, and keeps a
-symmetric pattern symmetric. It is far smaller than the folds it seeds.
+The start shape is the flat mattress; optionally (``dent > 0``) with a
+shallow inward dent of the string's face under each string (a half sine
+along it), which seeds an inward fold where the membrane is modelled as
+two-sided (``Parameters(compression=1)``, the literal B1 of Equation 5). The
+default wrinkling membrane needs no seed.
 """
 
 from __future__ import annotations
@@ -26,9 +25,10 @@ from scipy.spatial import cKDTree
 from airmat.errors import ConvergenceError
 from design.inflation.assembly import build_assembler
 from design.inflation.energy import block_pattern
-from design.inflation.mesh import MattressMesh
+from design.inflation.mesh import MattressMesh, build_mattress_mesh
 from design.inflation.model import Parameters, build_model
-from design.inflation.solver import SolveResult, rigid_pins, solve
+from design.inflation.prolong import coarse_resolutions, prolong
+from design.inflation.solver import NewtonSystem, rigid_pins, solve
 from design.inflation.strings import StringSet
 
 __all__ = ["Inflation", "inflate", "start_positions"]
@@ -104,12 +104,7 @@ def start_positions(mesh: MattressMesh, strings: StringSet | None, *, dent: floa
     tree = cKDTree(mesh.uv[mesh.top])
     dist, g = tree.query(pts, k=4, distance_upper_bound=a_sp)
     hit = np.isfinite(dist)
-    import os
-    if os.environ.get("DENT") == "local":
-        prof = np.exp(-(((s - 0.5) * span[owner]) / a_sp) ** 2)
-    else:
-        prof = np.sin(np.pi * s)
-    depth = dent * a_sp * prof[:, None] * (1.0 - np.where(hit, dist, a_sp) / a_sp)
+    depth = dent * a_sp * np.sin(np.pi * s)[:, None] * (1.0 - np.where(hit, dist, a_sp) / a_sp)
     samp = np.broadcast_to(np.arange(len(pts))[:, None], g.shape)[hit]
     top = strings.top[owner[samp]]
     vert = np.where(top, mesh.top[np.minimum(g[hit], len(mesh.top) - 1)],
@@ -123,14 +118,57 @@ def start_positions(mesh: MattressMesh, strings: StringSet | None, *, dent: floa
     return x
 
 
-def _stage_rest(l0: np.ndarray, target: np.ndarray, lam: float) -> np.ndarray:
-    return l0 + lam * (target - l0)
+def _with_rest(model, rest: np.ndarray):
+    """The model with the external strings (its last spring group) at other rest lengths (m)."""
+    return replace(model, springs=model.springs[:-1] + (replace(model.springs[-1], rest=rest),))
+
+
+def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: np.ndarray, *,
+          tol: float, stages: int, stage_tol: float, max_iter: int):
+    """Solve U_B on ``mesh`` from ``x``, with the string rest lengths ramped from their
+    lengths at ``x`` to l* in ``stages`` steps (1: no ramp). Returns (SolveResult, iterations, stages)."""
+    model = build_model(mesh, strings, params)
+    fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+    kw = dict(fixed_dofs=fixed, max_iter=max_iter, max_move=0.5 * float(np.mean(mesh.spacing)),
+              assembler=build_assembler(block_pattern(model), model.n_vertices, fixed),
+              linear_system=None)
+    kw["linear_system"] = NewtonSystem(groups=kw["assembler"].free // 3)   # shared by the stages
+    ramp = strings is not None and len(strings) > 0
+    l0 = model.springs[-1].lengths(x) if ramp else None
+    lam, step, n_iter, n_stages, halvings = 0.0, 1.0 / max(stages, 1), 0, 0, 0
+    while True:
+        nxt = min(1.0, lam + step) if ramp else 1.0
+        m = _with_rest(model, l0 + nxt * (model.springs[-1].rest - l0)) if ramp else model
+        try:
+            r = solve(m, x, tol=tol if nxt >= 1.0 else stage_tol, desc=f"inflate {nxt:.0%}", **kw)
+        except ConvergenceError:
+            if not ramp or halvings >= 6:
+                raise
+            r = None
+        n_iter += r.n_iter if r is not None else 0
+        if r is None or (not r.converged and nxt < 1.0):
+            if halvings >= 6:
+                raise ConvergenceError(f"the string ramp stalled at {lam:.0%} of the contraction", stage=lam)
+            halvings, step = halvings + 1, 0.5 * step
+            log.info("inflation stage to %.0f%% failed; retrying with a step of %.1f%%", 100 * nxt, 100 * step)
+            continue
+        x, lam, result, n_stages = r.xyz, nxt, r, n_stages + 1
+        log.debug("inflation stage to %.1f%%: %d iterations, residual %.2e", 100 * lam, r.n_iter, r.residual)
+        if lam >= 1.0:
+            return result, n_iter, n_stages
 
 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
-            tol: float = 1e-6, stages: int = 6, stage_tol: float = 1e-3, dent: float = 0.1,
-            max_iter: int = 300, strict: bool = False) -> Inflation:
+            tol: float = 1e-6, stages: int = 4, stage_tol: float = 3e-2, level_tol: float = 1e-3,
+            coarsest: float = 0.08, dent: float = 0.0, max_iter: int = 200,
+            strict: bool = False) -> Inflation:
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.
+
+    The string ramp is solved on the coarsest mesh of the continuation
+    (:func:`~design.inflation.prolong.coarse_resolutions`: the resolution
+    doubled while it stays <= ``coarsest`` and leaves 4 edges along every
+    string), then each finer mesh starts from the prolonged coarser solution
+    with the strings at l*.
 
     Parameters
     ----------
@@ -139,11 +177,17 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
         External strings; ``strings.rest`` is the simulated length l* (m).
     params : Parameters
     tol : float
-        Final relative force residual.
+        Final relative force residual (on ``mesh``).
     stages : int
-        Ramp stages of the string rest lengths (halved on failure, up to 4 times).
+        Ramp stages of the string rest lengths (a failed stage is retried with
+        half the step, up to 6 times in all).
     stage_tol : float
-        Residual of the intermediate stages.
+        Residual of the intermediate ramp stages.
+    level_tol : float
+        Residual of the coarser meshes of the continuation.
+    coarsest : float
+        Coarsest resolution of the continuation (m); at most ``mesh``'s own
+        resolution turns the continuation off.
     dent : float
         Start dent, fraction of the mesh spacing (see :func:`start_positions`).
     max_iter : int
@@ -154,48 +198,28 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     Returns
     -------
     Inflation
+        ``n_iter`` and ``stages`` count every mesh of the continuation.
     """
     t0 = time.perf_counter()
-    model = build_model(mesh, strings, params)
-    fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
-    asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
-    x = start_positions(mesh, strings, dent=dent)
-    max_move = 0.5 * float(np.mean(mesh.spacing))
-    has_strings = strings is not None and len(strings) > 0
-    target = model.springs[-1].rest if has_strings else None
-    l0 = model.springs[-1].lengths(x) if has_strings else None
-    lam, step, n_iter, n_stages, halvings = 0.0, 1.0 / max(stages, 1), 0, 0, 0
-    result: SolveResult | None = None
-    while True:
-        nxt = min(1.0, lam + step) if has_strings else 1.0
-        last = nxt >= 1.0
-        m = model
-        if has_strings:
-            b4 = replace(model.springs[-1], rest=_stage_rest(l0, target, nxt))
-            m = replace(model, springs=model.springs[:-1] + (b4,))
-        try:
-            r = solve(m, x, fixed_dofs=fixed, tol=tol if last else stage_tol, max_iter=max_iter,
-                      max_move=max_move, assembler=asm, desc=f"inflate {nxt:.0%}")
-        except ConvergenceError:
-            if not has_strings or halvings >= 4:
-                raise
-            r = None
-        n_iter += r.n_iter if r is not None else 0
-        if r is None or (not r.converged and not last):
-            if halvings >= 6:
-                raise ConvergenceError(f"the string ramp stalled at {lam:.0%} of the contraction",
-                                       stage=lam)
-            halvings += 1
-            step *= 0.5
-            log.info("inflation stage to %.0f%% failed; retrying with a step of %.1f%%", 100 * nxt, 100 * step)
-            continue
-        x, lam, result, n_stages = r.xyz, nxt, r, n_stages + 1
-        log.debug("inflation stage to %.1f%%: %d iterations, residual %.2e", 100 * lam, r.n_iter, r.residual)
-        if last:
-            break
+    resolution = float(max(mesh.spacing))
+    span = np.linalg.norm(strings.b - strings.a, axis=1).min() if strings is not None and len(strings) else np.inf
+    levels = coarse_resolutions(resolution, coarsest=coarsest, shortest_span=span, per_string=3.0)
+    meshes = [mesh] + [build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=r)
+                       for r in levels[1:]]
+    x, n_iter, n_stages = None, 0, 0
+    for k in range(len(meshes) - 1, -1, -1):
+        m = meshes[k]
+        x = start_positions(m, strings, dent=dent) if x is None else prolong(meshes[k + 1], x, m)
+        first = k == len(meshes) - 1
+        result, it, st = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
+                               stages=stages if first else 1, stage_tol=stage_tol, max_iter=max_iter)
+        x, n_iter, n_stages = result.xyz, n_iter + it, n_stages + st
+        log.debug("inflation on the %.0f mm mesh: %d iterations, residual %.2e", 1e3 * max(m.spacing),
+                  it, result.residual)
     if not result.converged and strict:
         raise ConvergenceError(result.message, residual=result.residual, n_iter=n_iter)
-    lengths = model.springs[-1].lengths(x) if has_strings else np.zeros(0)
+    ramp = strings is not None and len(strings) > 0
+    lengths = build_model(mesh, strings, params).springs[-1].lengths(x) if ramp else np.zeros(0)
     return Inflation(mesh=mesh, xyz=x, converged=result.converged, n_iter=n_iter, residual=result.residual,
                      message=result.message, seconds=time.perf_counter() - t0, energy=result.energy,
                      stages=n_stages, string_lengths=lengths)

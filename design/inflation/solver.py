@@ -1,14 +1,19 @@
 """Newton's method for the equilibrium of U_B (min over vertex positions).
 
-Each iteration assembles the sparse Hessian (exact, or with every spring
-block projected PSD; exact pressure term; constant smoothing) on a fixed CSR
-pattern and solves ``(H + mu I) dx = -g`` with a sparse LU (scipy SuperLU
-with diagonal pivots, whose pivot signs tell whether the matrix is positive
-definite). ``mu`` is a Levenberg–Marquardt trust-region shift: raised until
+Each iteration assembles the sparse Hessian (exact by default, or with every
+spring block projected PSD; exact pressure term; constant smoothing) on a
+fixed CSR pattern and solves ``(H + mu I) dx = -g`` by a sparse Cholesky
+factorization (:mod:`design.inflation.cholesky`: CHOLMOD, METIS ordering,
+symbolic analysis once), which also tells whether ``H + mu I`` is positive
+definite. ``mu`` is a Levenberg–Marquardt trust-region shift: raised until
 the matrix is positive definite (compressed edges and the pressure make H
 indefinite away from equilibrium), raised again when a step does not lower
-U_B as the quadratic model predicted, lowered after good steps. Six degrees
+U_B as its quadratic model predicted, lowered after good steps. Six degrees
 of freedom of three vertices are pinned to remove the rigid motions.
+
+The exact Hessian with the shift converges in a few tens of iterations per
+ramp stage; the per-element PSD projection (``project=True``) stalls in the
+folds and wrinkles, where it discards the softening the shape depends on.
 
 Stopping rule: ``max |grad| / max_i |p dVol/dx_i| < tol`` -- the largest
 out-of-balance force relative to the largest pressure force on a vertex.
@@ -22,15 +27,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from airmat.errors import ConvergenceError
 from airmat.progress import progress
 from design.inflation.assembly import build_assembler
+from design.inflation.cholesky import ShiftedCholesky
 from design.inflation.energy import (Model, block_pattern, energy, energy_and_gradient, hessian_blocks,
                                      pressure_forces, smoothing_blocks)
 
-__all__ = ["SolveResult", "solve", "rigid_pins"]
+__all__ = ["SolveResult", "solve", "rigid_pins", "NewtonSystem"]
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +64,8 @@ class SolveResult:
     history : tuple of float
         Residual after each iteration.
     n_factorizations : int
-        Sparse LU factorizations (more than ``n_iter`` when shifts were needed).
+        Cholesky factorizations so far by the linear solver used (cumulative
+        when one ``linear_system`` is shared between calls).
     """
 
     xyz: np.ndarray
@@ -74,19 +80,29 @@ class SolveResult:
 
 
 def rigid_pins(uv: np.ndarray, top: np.ndarray, spacing: tuple) -> np.ndarray:
-    """Six flat DOF indices that remove the rigid motions: three top vertices near the centre of Ω.
+    """Six flat DOF indices that remove the rigid motions: three side-wall vertices.
 
-    Vertex A (closest to the centre) is fixed; vertex B, a few cells along u
-    from A, keeps its y and z; vertex C, a few cells along v, keeps its z.
-    Any deformed shape can be moved rigidly to satisfy these, so they do not
-    change the equilibrium shape.
+    Vertex A (middle of the side v = 0) is fixed; vertex B (middle of the side
+    v = H) keeps its x and z, so it stays on the line through A along y;
+    vertex C (middle of the side u = 0) keeps its z. Any deformed shape can
+    be moved rigidly to satisfy these, so they do not change the equilibrium
+    shape. The side-wall vertices lie half-way between the faces (z = 0), so
+    a pattern and its top/bottom mirror image are solved along mirror paths.
+
+    Parameters
+    ----------
+    uv : ndarray of shape (n, 2)
+        Ω coordinates of all vertices (the side-wall ones after the two faces).
+    top : ndarray of shape (g,)
+        Top-face vertex indices (their count gives where the side wall starts).
+    spacing : tuple
+        Grid spacing (unused; kept for the call signature).
     """
-    g = uv[top]
-    c = g.mean(axis=0)
-    step = 2.0 * np.asarray(spacing)
-    pick = [int(np.argmin(np.linalg.norm(g - p, axis=1))) for p in (c, c + [step[0], 0], c + [0, step[1]])]
-    a, b, cc = (3 * top[i] for i in pick)
-    return np.array([a, a + 1, a + 2, b + 1, b + 2, cc + 2])
+    side = np.arange(2 * len(top), len(uv))
+    w, h = uv[:, 0].max(), uv[:, 1].max()
+    targets = ([0.5 * w, 0.0], [0.5 * w, h], [0.0, 0.5 * h])
+    a, b, c = (3 * side[int(np.argmin(np.linalg.norm(uv[side] - t, axis=1)))] for t in targets)
+    return np.array([a, a + 1, a + 2, b, b + 2, c + 2])
 
 
 def _residual(model: Model, x: np.ndarray, g_free: np.ndarray) -> float:
@@ -94,32 +110,38 @@ def _residual(model: Model, x: np.ndarray, g_free: np.ndarray) -> float:
     return float(np.max(np.abs(g_free))) / max(f_ref, np.finfo(float).tiny)
 
 
-def _factor(a: sp.csr_matrix):
-    """Sparse LU with diagonal pivots; returns (lu, positive definite?) or (None, False) if singular."""
-    try:
-        lu = spla.splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A",
-                       options=dict(SymmetricMode=True, DiagPivotThresh=0.0))
-    except RuntimeError:                   # exactly singular
-        return None, False
-    # with diagonal pivots (perm_r == perm_c) the pivots are the D of an LDL^T: their signs give the inertia
-    pd = np.array_equal(lu.perm_r, lu.perm_c) and bool(np.all(lu.U.diagonal() > 0))
-    return lu, pd
+class NewtonSystem:
+    """Solves ``(H + mu I) dx = -g`` by a sparse Cholesky factorization (:mod:`~design.inflation.cholesky`),
+    with ``mu`` raised until ``H + mu I`` is positive definite.
 
-
-def _shifted_step(h: sp.csr_matrix, g: np.ndarray, mu: float, mu_min: float):
-    """Solve (H + mu I) dx = -g with mu raised (x10) until the matrix is positive definite.
-
-    Returns (dx, mu, n_factorizations).
+    After a failure ``mu`` jumps to ``max(10 mu, mu_min, hint / 10)``, ``hint``
+    being the last shift that was needed (indefiniteness tends to persist over
+    a few iterations). One instance can be shared by successive solves on
+    models of the same structure (the ramp stages): the symbolic analysis is
+    done once.
     """
-    eye = sp.identity(h.shape[0], format="csr")
-    for k in range(1, 20):
-        lu, pd = _factor(h + mu * eye if mu > 0 else h)
-        if pd:
-            dx = lu.solve(-g)
-            if np.all(np.isfinite(dx)):
-                return dx, mu, k
-        mu = max(10.0 * mu, mu_min)
-    raise ConvergenceError("the Newton matrix stays indefinite even with a large shift", mu=mu)
+
+    def __init__(self, mu_min: float | None = None, groups: np.ndarray | None = None):
+        self.mu_min, self.hint, self.chol, self.groups = mu_min, 0.0, None, groups
+
+    @property
+    def n_factorizations(self) -> int:
+        return 0 if self.chol is None else self.chol.n_factorizations
+
+    def step(self, h: sp.csr_matrix, g: np.ndarray, mu: float):
+        """Returns (dx, mu) with the shift actually used."""
+        if self.chol is None:
+            self.chol = ShiftedCholesky(h, self.groups)
+        mu0 = mu
+        for _ in range(20):
+            if self.chol.factor(h, mu):
+                if mu > mu0:
+                    self.hint = mu
+                dx = self.chol.solve(-g)
+                if np.all(np.isfinite(dx)):
+                    return dx, mu
+            mu = max(10.0 * mu, self.mu_min, 0.1 * self.hint)
+        raise ConvergenceError("the Newton matrix stays indefinite even with a large shift", mu=mu)
 
 
 def _full(dx_free: np.ndarray, free: np.ndarray, shape) -> np.ndarray:
@@ -139,9 +161,39 @@ def _check_sane(model: Model, x: np.ndarray, e: float, it: int) -> None:
                                f"stiffness", iteration=it, strain=strain)
 
 
+class _TrustRegion:
+    """The Levenberg–Marquardt shift ``mu`` and one accepted step of it."""
+
+    def __init__(self, model: Model, free: np.ndarray, max_move: float, mu_min: float):
+        self.model, self.free, self.max_move, self.mu_min, self.mu = model, free, max_move, mu_min, 0.0
+
+    def step(self, system: NewtonSystem, h, x, e, gf):
+        """Shrink (raise mu) until a step lowers U_B; returns (x, U, grad) or None."""
+        for _ in range(30):
+            dx, self.mu = system.step(h, gf, self.mu)
+            longest = float(np.max(np.linalg.norm(_full(dx, self.free, x.shape), axis=1)))
+            cap = min(1.0, self.max_move / longest) if longest > 0 else 1.0
+            dx *= cap
+            predicted = -(gf @ dx + 0.5 * dx @ (h @ dx))
+            xn = x.copy()
+            xn.reshape(-1)[self.free] += dx
+            en, gn = energy_and_gradient(self.model, xn)
+            actual = e - en
+            noise = 1e-12 * (abs(e) + abs(en))   # U ~ p Vol: its round-off can exceed tiny decreases
+            rho = actual / predicted if predicted > noise else (1.0 if abs(actual) <= noise else -1.0)
+            if np.isfinite(en) and rho > 1e-4:
+                if rho < 0.25:
+                    self.mu = max(4.0 * self.mu, 1e2 * self.mu_min)
+                elif rho > 0.75 and cap == 1.0:
+                    self.mu = self.mu / 3.0 if self.mu > 1e2 * self.mu_min else 0.0
+                return xn, en, gn
+            self.mu = max(4.0 * self.mu, 1e2 * self.mu_min)
+        return None
+
+
 def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max_iter: int = 200,
           max_move: float = np.inf, assembler=None, project: bool = False, strict: bool = False,
-          desc: str = "inflate") -> SolveResult:
+          desc: str = "inflate", linear_system=None) -> SolveResult:
     """Minimise U_B from ``x0`` by damped, shifted Newton iterations.
 
     Parameters
@@ -156,14 +208,17 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
     max_iter : int
     max_move : float
         Largest vertex displacement of one Newton step (m); longer steps are
-        scaled down (a simple trust region against wild first steps).
+        scaled down (against wild first steps).
     assembler : Assembler, optional
         The CSR pattern of ``block_pattern(model)`` with ``fixed_dofs``
         removed, to reuse across calls on models of the same structure.
+    linear_system : NewtonSystem, optional
+        Reuse the linear solver (its ordering and symbolic factorization) of a
+        previous call on a model of the same structure, e.g. the previous ramp stage.
     project : bool
-        Project every spring's Hessian to be PSD (Gauss-Newton-like) instead of
-        the exact Hessian with a global shift (default; converges much faster
-        through the folds, where compressed edges soften the structure).
+        Project every spring's Hessian to be PSD (per-element, Gauss-Newton-like)
+        instead of the exact Hessian with the global shift (the default, which
+        converges much faster where compressed edges soften the structure).
     strict : bool
         Raise :class:`ConvergenceError` instead of returning unconverged.
 
@@ -181,16 +236,17 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
     x = np.array(x0, dtype=float, copy=True)
     asm = assembler or build_assembler(block_pattern(model), model.n_vertices, fixed_dofs)
     q_blocks = smoothing_blocks(model)
-    free = asm.free
-    history, converged, message, n_fact, it = [], False, "", 0, 0
+    history, converged, message, it = [], False, "", 0
     h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
-    mu_min = 1e-8 * float(np.mean(np.abs(h.diagonal())))
-    mu = 0.0
+    tr = _TrustRegion(model, asm.free, max_move, 1e-8 * float(np.mean(np.abs(h.diagonal()))))
+    system = linear_system if linear_system is not None else NewtonSystem(groups=asm.free // 3)
+    if system.mu_min is None:
+        system.mu_min = tr.mu_min
     e, g = energy_and_gradient(model, x)
     with progress(total=max_iter, desc=desc, unit="it") as bar:
         while True:
             _check_sane(model, x, e, it)
-            gf = g.reshape(-1)[free]
+            gf = g.reshape(-1)[asm.free]
             res = _residual(model, x, gf)
             history.append(res)
             bar.set_postfix_str(f"residual {res:.2e}")
@@ -201,38 +257,19 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
                 message = f"not converged after {it} iterations: residual {res:.3g} >= {tol:g}"
                 break
             h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
-            for _ in range(30):                        # trust-region loop: shrink until the step pays
-                dx, mu, nf = _shifted_step(h, gf, mu, mu_min)
-                n_fact += nf
-                longest = float(np.max(np.linalg.norm(_full(dx, free, x.shape), axis=1)))
-                cap = min(1.0, max_move / longest) if longest > 0 else 1.0
-                dx *= cap
-                predicted = -(gf @ dx + 0.5 * dx @ (h @ dx))
-                xn = x.copy()
-                xn.reshape(-1)[free] += dx
-                en, gn = energy_and_gradient(model, xn)
-                actual = e - en
-                noise = 1e-12 * (abs(e) + abs(en))
-                rho = actual / predicted if predicted > noise else (1.0 if abs(actual) <= noise else -1.0)
-                if np.isfinite(en) and rho > 1e-4:
-                    break
-                mu = max(4.0 * mu, mu_min * 1e2)
-            else:
+            step = tr.step(system, h, x, e, gf)
+            if step is None:
                 message = f"stalled at iteration {it}: no energy decrease even with a large shift"
                 break
-            log.debug("iteration %d: U=%.12g J, residual %.3e, rho %.3g, shift %.1e, cap %.2g",
-                      it, en, res, rho, mu, cap)
-            x, e, g = xn, en, gn
-            if rho < 0.25:
-                mu = max(4.0 * mu, mu_min * 1e2)
-            elif rho > 0.75 and cap == 1.0:
-                mu = mu / 3.0 if mu > mu_min * 1e2 else 0.0
+            x, e, g = step
+            log.debug("iteration %d: U=%.12g J, residual %.3e, shift %.1e", it, e, res, tr.mu)
             it += 1
             bar.update(1)
+    log.debug("%s: %d iterations, %d Cholesky factorizations", desc, it, system.n_factorizations)
     if not converged:
         log.warning("inflation solver: %s", message)
         if strict:
             raise ConvergenceError(message, residual=history[-1], n_iter=it)
     return SolveResult(xyz=x, converged=converged, n_iter=it, residual=history[-1], message=message,
                        seconds=time.perf_counter() - t0, energy=float(e), history=tuple(history),
-                       n_factorizations=n_fact)
+                       n_factorizations=system.n_factorizations)

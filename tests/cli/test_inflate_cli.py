@@ -61,6 +61,7 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     ("missing_field", "mattress.thickness_mm"),
     ("outside", "k1-009-01"),
     ("coarse", "too coarse"),
+    ("fine", "limit 200000"),
     ("no_surface", "approx_surface.ply"),
 ])
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, case, words):
@@ -75,6 +76,9 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ca
     elif case == "coarse":
         make_design(folder)
         args = ["--resolution-mm", "100"]
+    elif case == "fine":
+        make_design(folder)
+        args = ["--resolution-mm", "1"]
     elif case == "no_surface":
         make_design(folder)
         (folder / "approx_surface.ply").unlink()

@@ -1,0 +1,101 @@
+"""Benchmark: one factorization of the inflation solver's Newton matrix, by ordering and library.
+
+Usage::
+
+    .venv/bin/python bench/bench_cholesky.py            # vault1 (small) and vault2 (large) at 20 mm
+    .venv/bin/python bench/bench_cholesky.py --quick    # vault1 at 40 mm only
+
+The matrix is U_B's Hessian at a slightly stretched flat mattress with the
+preset's strings (the pattern is the solver's; a shift makes it positive
+definite). Rows: scipy SuperLU (MMD on AᵀA + A, diagonal pivots: the
+solver's former linear algebra), CHOLMOD with its default ordering (AMD) and
+CHOLMOD with METIS nested dissection of the vertex graph (the solver's
+choice). Median of 3 numeric factorizations; the symbolic analysis is timed
+separately (done once per solve).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+import numpy as np  # noqa: E402
+import scipy.sparse as sp  # noqa: E402
+import scipy.sparse.linalg as spla  # noqa: E402
+
+from airmat.units import MM  # noqa: E402
+from design.inflation.assembly import build_assembler  # noqa: E402
+from design.inflation.cholesky import ShiftedCholesky  # noqa: E402
+from design.inflation.design_folder import read_design_folder  # noqa: E402
+from design.inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
+from design.inflation.mesh import build_mattress_mesh  # noqa: E402
+from design.inflation.model import build_model  # noqa: E402
+from design.inflation.solver import rigid_pins  # noqa: E402
+
+
+def _design(preset: str, folder: Path):
+    import contextlib
+    import io
+
+    from airmat.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:
+            raise SystemExit("design failed")
+    return read_design_folder(folder)
+
+
+def _median_time(fn, repeat: int = 3) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="vault1 at 40 mm only")
+    args = ap.parse_args(argv)
+    cases = [("vault1", 40.0)] if args.quick else [("vault1", 20.0), ("vault2", 20.0)]
+    print("| preset | mattress (mm) | resolution (mm) | unknowns | method | symbolic (s) | numeric (s) "
+          "| factor non-zeros |")
+    print("|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for preset, res in cases:
+            design = _design(preset, Path(tmp) / preset)
+            mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=res * MM)
+            model = build_model(mesh, design.strings())
+            fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+            asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
+            h = asm.assemble(hessian_blocks(model, mesh.vertices * 1.001) + [smoothing_blocks(model)])
+            mu = 1e-2 * float(np.mean(np.abs(h.diagonal())))
+            n = h.shape[0]
+            head = f"| {preset} | {design.width / MM:.0f} x {design.height / MM:.0f} | {res:g} | {n} "
+            a = (h + mu * sp.identity(n, format="csr")).tocsc()
+            lu = [None]
+
+            def superlu():
+                lu[0] = spla.splu(a, permc_spec="MMD_AT_PLUS_A",
+                                  options=dict(SymmetricMode=True, DiagPivotThresh=0.0))
+
+            t = _median_time(superlu)
+            print(head + f"| SuperLU (MMD) | - | {t:.3f} | {lu[0].L.nnz} |", flush=True)
+            for name, groups in (("CHOLMOD (AMD)", None), ("CHOLMOD (METIS, vertex graph)", asm.free // 3)):
+                t0 = time.perf_counter()
+                chol = ShiftedCholesky(h, groups)
+                t_sym = time.perf_counter() - t0
+                t = _median_time(lambda: chol.factor(h, mu))
+                print(head + f"| {name} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
