@@ -21,8 +21,8 @@ def add_parser(sub, parents):
     p.add_argument("--preset", default="vault1",
                    help="target preset to design and inflate (default vault1)")
     p.add_argument("--points", type=int, default=100_000, help="points per synthetic scan (default 100000)")
-    p.add_argument("--resolution-mm", default="50",
-                   help="mesh edge length of the inflation check (default 50: coarse, to keep the demo short)")
+    p.add_argument("--resolution-mm", default="20",
+                   help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
     p.set_defaults(func=run)
 
 

@@ -12,8 +12,8 @@ def add_parser(sub, parents):
     p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: inflate.json, inflated.ply, deviation.png")
-    p.add_argument("--resolution-mm", type=float, default=25.0,
-                   help="edge length of the double-layer mesh (default 25, near the loop-pin spacing)")
+    p.add_argument("--resolution-mm", type=float, default=20.0,
+                   help="edge length of the double-layer mesh (default 20, near the loop-pin spacing)")
     p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
     p.add_argument("--no-envelope", action="store_true",
                    help="skip the runs with every string at its lo95 and hi95 length")

@@ -124,15 +124,18 @@ def _with_rest(model, rest: np.ndarray):
 
 
 def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: np.ndarray, *,
-          tol: float, stages: int, stage_tol: float, max_iter: int):
+          tol: float, stages: int, stage_tol: float, max_iter: int, hint_rel: float = 0.0):
     """Solve U_B on ``mesh`` from ``x``, with the string rest lengths ramped from their
-    lengths at ``x`` to l* in ``stages`` steps (1: no ramp). Returns (SolveResult, iterations, stages)."""
+    lengths at ``x`` to l* in ``stages`` steps (1: no ramp). ``hint_rel`` seeds the Newton shift
+    (see :class:`~design.inflation.solver.NewtonSystem`).
+
+    Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``)."""
     model = build_model(mesh, strings, params)
     fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
     kw = dict(fixed_dofs=fixed, max_iter=max_iter, max_move=0.5 * float(np.mean(mesh.spacing)),
               assembler=build_assembler(block_pattern(model), model.n_vertices, fixed),
               linear_system=None)
-    kw["linear_system"] = NewtonSystem(groups=kw["assembler"].free // 3)   # shared by the stages
+    kw["linear_system"] = NewtonSystem(groups=kw["assembler"].free // 3, hint_rel=hint_rel)  # all stages
     ramp = strings is not None and len(strings) > 0
     l0 = model.springs[-1].lengths(x) if ramp else None
     lam, step, n_iter, n_stages, halvings = 0.0, 1.0 / max(stages, 1), 0, 0, 0
@@ -155,7 +158,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
         x, lam, result, n_stages = r.xyz, nxt, r, n_stages + 1
         log.debug("inflation stage to %.1f%%: %d iterations, residual %.2e", 100 * lam, r.n_iter, r.residual)
         if lam >= 1.0:
-            return result, n_iter, n_stages
+            return result, n_iter, n_stages, kw["linear_system"].hint_rel
 
 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
@@ -206,13 +209,14 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     levels = coarse_resolutions(resolution, coarsest=coarsest, shortest_span=span, per_string=3.0)
     meshes = [mesh] + [build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=r)
                        for r in levels[1:]]
-    x, n_iter, n_stages = None, 0, 0
+    x, n_iter, n_stages, hint = None, 0, 0, 0.0
     for k in range(len(meshes) - 1, -1, -1):
         m = meshes[k]
         x = start_positions(m, strings, dent=dent) if x is None else prolong(meshes[k + 1], x, m)
         first = k == len(meshes) - 1
-        result, it, st = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
-                               stages=stages if first else 1, stage_tol=stage_tol, max_iter=max_iter)
+        result, it, st, hint = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
+                                     stages=stages if first else 1, stage_tol=stage_tol, max_iter=max_iter,
+                                     hint_rel=hint)
         x, n_iter, n_stages = result.xyz, n_iter + it, n_stages + st
         log.debug("inflation on the %.0f mm mesh: %d iterations, residual %.2e", 1e3 * max(m.spacing),
                   it, result.residual)

@@ -118,11 +118,13 @@ class NewtonSystem:
     being the last shift that was needed (indefiniteness tends to persist over
     a few iterations). One instance can be shared by successive solves on
     models of the same structure (the ramp stages): the symbolic analysis is
-    done once.
+    done once. ``hint_rel`` is that shift relative to the mean diagonal of the
+    matrix, so that it can seed the solver of a finer mesh.
     """
 
-    def __init__(self, mu_min: float | None = None, groups: np.ndarray | None = None):
-        self.mu_min, self.hint, self.chol, self.groups = mu_min, 0.0, None, groups
+    def __init__(self, mu_min: float | None = None, groups: np.ndarray | None = None,
+                 hint_rel: float = 0.0):
+        self.mu_min, self.hint_rel, self.chol, self.groups, self.scale = mu_min, hint_rel, None, groups, None
 
     @property
     def n_factorizations(self) -> int:
@@ -132,15 +134,16 @@ class NewtonSystem:
         """Returns (dx, mu) with the shift actually used."""
         if self.chol is None:
             self.chol = ShiftedCholesky(h, self.groups)
+            self.scale = float(np.mean(np.abs(h.diagonal())))
         mu0 = mu
         for _ in range(20):
             if self.chol.factor(h, mu):
                 if mu > mu0:
-                    self.hint = mu
+                    self.hint_rel = mu / self.scale
                 dx = self.chol.solve(-g)
                 if np.all(np.isfinite(dx)):
                     return dx, mu
-            mu = max(10.0 * mu, self.mu_min, 0.1 * self.hint)
+            mu = max(10.0 * mu, self.mu_min, 0.1 * self.hint_rel * self.scale)
         raise ConvergenceError("the Newton matrix stays indefinite even with a large shift", mu=mu)
 
 
