@@ -1,0 +1,29 @@
+"""`airmat gallery`: designs and inflates presets into one Table-1-style table."""
+
+import contextlib
+import io
+import json
+
+from airmat.cli import main
+
+
+def test_gallery_row_matches_the_design_and_inflation_files(tmp_path):
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["gallery", "--presets", "saddle", "--resolution-mm", "60", "--out", str(tmp_path), "-q"]) == 0
+    table = (tmp_path / "gallery.md").read_text().splitlines()
+    assert len(table) == 3 and table[2].startswith("| small | saddle |")
+    design = json.loads((tmp_path / "saddle" / "design" / "design.json").read_text())
+    inflate = json.loads((tmp_path / "saddle" / "inflate" / "inflate.json").read_text())
+    cells = [c.strip() for c in table[2].strip("|").split("|")]
+    assert cells[5] == str(len(design["dashes"]))
+    rms, mx = (float(v) for v in cells[7].split("//"))
+    assert rms == round(inflate["deviation"]["rms_mm"], 1) and mx == round(inflate["deviation"]["max_mm"], 1)
+    assert 0 < rms < mx                                  # a real, non-zero deviation
+    assert inflate["solver"]["converged"] is True
+
+
+def test_unknown_preset_exits_2_with_one_line(tmp_path, capsys):
+    assert main(["gallery", "--presets", "vault1,tent", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "tent" in err[0]
+    assert not (tmp_path / "gallery.md").exists()
