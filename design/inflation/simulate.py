@@ -129,13 +129,13 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
     lengths at ``x`` to l* in ``stages`` steps (1: no ramp). ``hint_rel`` seeds the Newton shift
     (see :class:`~design.inflation.solver.NewtonSystem`).
 
-    Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``)."""
+    Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``, the model)."""
     model = build_model(mesh, strings, params)
     fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+    asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
+    system = NewtonSystem(groups=asm.free // 3, hint_rel=hint_rel)       # shared by the stages
     kw = dict(fixed_dofs=fixed, max_iter=max_iter, max_move=0.5 * float(np.mean(mesh.spacing)),
-              assembler=build_assembler(block_pattern(model), model.n_vertices, fixed),
-              linear_system=None)
-    kw["linear_system"] = NewtonSystem(groups=kw["assembler"].free // 3, hint_rel=hint_rel)  # all stages
+              assembler=asm, linear_system=system)
     ramp = strings is not None and len(strings) > 0
     l0 = model.springs[-1].lengths(x) if ramp else None
     lam, step, n_iter, n_stages, halvings = 0.0, 1.0 / max(stages, 1), 0, 0, 0
@@ -158,7 +158,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
         x, lam, result, n_stages = r.xyz, nxt, r, n_stages + 1
         log.debug("inflation stage to %.1f%%: %d iterations, residual %.2e", 100 * lam, r.n_iter, r.residual)
         if lam >= 1.0:
-            return result, n_iter, n_stages, kw["linear_system"].hint_rel
+            return result, n_iter, n_stages, system.hint_rel, model
 
 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
@@ -169,7 +169,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
 
     The string ramp is solved on the coarsest mesh of the continuation
     (:func:`~design.inflation.prolong.coarse_resolutions`: the resolution
-    doubled while it stays <= ``coarsest`` and leaves 4 edges along every
+    doubled while it stays <= ``coarsest`` and leaves 3 edges along every
     string), then each finer mesh starts from the prolonged coarser solution
     with the strings at l*.
 
@@ -214,16 +214,16 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
         m = meshes[k]
         x = start_positions(m, strings, dent=dent) if x is None else prolong(meshes[k + 1], x, m)
         first = k == len(meshes) - 1
-        result, it, st, hint = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
-                                     stages=stages if first else 1, stage_tol=stage_tol, max_iter=max_iter,
-                                     hint_rel=hint)
+        result, it, st, hint, model = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
+                                            stages=stages if first else 1, stage_tol=stage_tol,
+                                            max_iter=max_iter, hint_rel=hint)
         x, n_iter, n_stages = result.xyz, n_iter + it, n_stages + st
         log.debug("inflation on the %.0f mm mesh: %d iterations, residual %.2e", 1e3 * max(m.spacing),
                   it, result.residual)
     if not result.converged and strict:
         raise ConvergenceError(result.message, residual=result.residual, n_iter=n_iter)
-    ramp = strings is not None and len(strings) > 0
-    lengths = build_model(mesh, strings, params).springs[-1].lengths(x) if ramp else np.zeros(0)
+    has_strings = strings is not None and len(strings) > 0
+    lengths = model.springs[-1].lengths(x) if has_strings else np.zeros(0)
     return Inflation(mesh=mesh, xyz=x, converged=result.converged, n_iter=n_iter, residual=result.residual,
                      message=result.message, seconds=time.perf_counter() - t0, energy=result.energy,
                      stages=n_stages, string_lengths=lengths)
