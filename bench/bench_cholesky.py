@@ -30,25 +30,13 @@ import scipy.sparse as sp  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
+from designed_preset import designed_preset  # noqa: E402
 from design.inflation.assembly import build_assembler  # noqa: E402
 from design.inflation.cholesky import ShiftedCholesky  # noqa: E402
-from design.inflation.design_folder import read_design_folder  # noqa: E402
 from design.inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
 from design.inflation.mesh import build_mattress_mesh  # noqa: E402
 from design.inflation.model import build_model  # noqa: E402
 from design.inflation.solver import rigid_pins  # noqa: E402
-
-
-def _design(preset: str, folder: Path):
-    import contextlib
-    import io
-
-    from airmat.cli import main
-
-    with contextlib.redirect_stdout(io.StringIO()):
-        if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:
-            raise SystemExit("design failed")
-    return read_design_folder(folder)
 
 
 def _median_time(fn, repeat: int = 3) -> float:
@@ -70,7 +58,7 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for preset, res in cases:
-            design = _design(preset, Path(tmp) / preset)
+            design = designed_preset(preset, Path(tmp) / preset)
             mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=res * MM)
             model = build_model(mesh, design.strings())
             fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)

@@ -36,24 +36,12 @@ import numpy as np  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
-from design.inflation.design_folder import read_design_folder  # noqa: E402
+from designed_preset import designed_preset  # noqa: E402
 from design.inflation.mesh import build_mattress_mesh  # noqa: E402
 from design.inflation.model import Parameters, build_model  # noqa: E402
 from design.inflation.simulate import inflate, start_positions  # noqa: E402
 from design.inflation.solver import rigid_pins  # noqa: E402
 from kangaroo_baseline import kangaroo_solve  # noqa: E402
-
-
-def _design(preset: str, folder: Path):
-    import contextlib
-    import io
-
-    from airmat.cli import main
-
-    with contextlib.redirect_stdout(io.StringIO()):
-        if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:
-            raise SystemExit("design failed")
-    return read_design_folder(folder)
 
 
 def _rows(design, res_list, factor, cap_max):
@@ -98,7 +86,7 @@ def main(argv=None) -> int:
     designs = []
     with tempfile.TemporaryDirectory() as tmp:
         for preset, _ in runs:
-            designs.append(_design(preset, Path(tmp) / preset))
+            designs.append(designed_preset(preset, Path(tmp) / preset))
     for (preset, _), design in zip(runs, designs):
         print(f"{preset}: {len(design.strings())} strings on {design.width / MM:.0f} x "
               f"{design.height / MM:.0f} mm")
