@@ -61,7 +61,7 @@ def main(argv=None) -> int:
             design = designed_preset(preset, Path(tmp) / preset)
             mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=res * MM)
             model = build_model(mesh, design.strings())
-            fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+            fixed = rigid_pins(mesh.uv, mesh.top)
             asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
             h = asm.assemble(hessian_blocks(model, mesh.vertices * 1.001) + [smoothing_blocks(model)])
             mu = 1e-2 * float(np.mean(np.abs(h.diagonal())))

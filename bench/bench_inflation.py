@@ -53,7 +53,7 @@ def _rows(design, res_list, factor, cap_max):
         newton = inflate(mesh, strings)
         t_newton = time.perf_counter() - t0
         model = build_model(mesh, strings, Parameters())
-        fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+        fixed = rigid_pins(mesh.uv, mesh.top)
         cap = min(factor * t_newton, cap_max)
         base = kangaroo_solve(model, start_positions(mesh, strings), fixed_dofs=fixed,
                               tol=newton.residual if newton.converged else 1e-6, time_limit=cap)

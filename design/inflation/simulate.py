@@ -131,7 +131,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
 
     Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``, the model)."""
     model = build_model(mesh, strings, params)
-    fixed = rigid_pins(mesh.uv, mesh.top, mesh.spacing)
+    fixed = rigid_pins(mesh.uv, mesh.top)
     asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
     system = NewtonSystem(groups=asm.free // 3, hint_rel=hint_rel)       # shared by the stages
     kw = dict(fixed_dofs=fixed, max_iter=max_iter, max_move=0.5 * float(np.mean(mesh.spacing)),

@@ -32,7 +32,7 @@ from airmat.errors import ConvergenceError
 from airmat.progress import progress
 from design.inflation.assembly import build_assembler
 from design.inflation.cholesky import ShiftedCholesky
-from design.inflation.energy import (Model, block_pattern, energy, energy_and_gradient, hessian_blocks,
+from design.inflation.energy import (Model, block_pattern, energy_and_gradient, hessian_blocks,
                                      pressure_forces, smoothing_blocks)
 
 __all__ = ["SolveResult", "solve", "rigid_pins", "NewtonSystem"]
@@ -85,7 +85,7 @@ class SolveResult:
     n_factorizations: int = 0
 
 
-def rigid_pins(uv: np.ndarray, top: np.ndarray, spacing: tuple) -> np.ndarray:
+def rigid_pins(uv: np.ndarray, top: np.ndarray) -> np.ndarray:
     """Six flat DOF indices that remove the rigid motions: three side-wall vertices.
 
     Vertex A (middle of the side v = 0) is fixed; vertex B (middle of the side
@@ -101,8 +101,6 @@ def rigid_pins(uv: np.ndarray, top: np.ndarray, spacing: tuple) -> np.ndarray:
         Ω coordinates of all vertices (the side-wall ones after the two faces).
     top : ndarray of shape (g,)
         Top-face vertex indices (their count gives where the side wall starts).
-    spacing : tuple
-        Grid spacing (unused; kept for the call signature).
     """
     side = np.arange(2 * len(top), len(uv))
     w, h = uv[:, 0].max(), uv[:, 1].max()

@@ -88,7 +88,7 @@ def test_non_finite_start_raises(mesh):
     x = mesh.vertices.copy()
     x[5, 2] = np.nan
     with pytest.raises(ConvergenceError, match="non-finite"):
-        solve(model, x, fixed_dofs=rigid_pins(mesh.uv, mesh.top, mesh.spacing))
+        solve(model, x, fixed_dofs=rigid_pins(mesh.uv, mesh.top))
 
 
 def test_reported_residual_is_the_force_balance_of_the_result(mesh):
@@ -98,7 +98,7 @@ def test_reported_residual_is_the_force_balance_of_the_result(mesh):
     model = build_model(mesh, StringSet(a, b, np.array([False]), np.array([0.3])))
     g = energy_and_gradient(model, r.xyz)[1]
     free = np.ones(g.size, bool)
-    free[rigid_pins(mesh.uv, mesh.top, mesh.spacing)] = False
+    free[rigid_pins(mesh.uv, mesh.top)] = False
     f_ref = np.linalg.norm(pressure_forces(model, r.xyz), axis=1).max()
     assert np.abs(g.ravel()[free]).max() / f_ref == pytest.approx(r.residual, rel=1e-6, abs=1e-12)
     # the string really pulls: its length is within the clamp onset of its rest length
