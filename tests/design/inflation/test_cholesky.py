@@ -55,3 +55,51 @@ def test_pattern_without_its_diagonal_is_refused():
     h = sp.csr_matrix(np.array([[0.0, 1.0], [1.0, 0.0]]))
     with pytest.raises(ValueError, match="diagonal"):
         ShiftedCholesky(h)
+
+
+@pytest.mark.parametrize("flags, expected", [
+    ({"sse2", "avx", "avx2", "fma", "avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"}, "SkylakeX"),
+    ({"sse2", "avx", "avx2", "fma", "avx512f"}, "Haswell"),       # AVX-512 F alone: not a SkylakeX
+    ({"sse2", "avx", "avx2", "fma"}, "Haswell"),
+    ({"sse2", "avx"}, None),
+])
+def test_openblas_coretype_follows_the_cpu_flags(flags, expected):
+    from design.inflation.cholesky import openblas_coretype
+
+    assert openblas_coretype(flags) == expected
+
+
+_CORENAME = """
+import ctypes, glob, os, sys
+import design.inflation.cholesky as c
+import cvxopt
+libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
+if not libs:
+    print("no-bundled-openblas"); sys.exit()
+lib = ctypes.CDLL(libs[0])                          # already loaded by cvxopt: the same library
+lib.openblas_get_corename.restype = ctypes.c_char_p
+print(lib.openblas_get_corename().decode(), os.environ.get("OPENBLAS_CORETYPE", "-"), c.openblas_coretype())
+"""
+
+
+@pytest.mark.parametrize("user", [None, "Haswell"])
+def test_cvxopts_openblas_runs_the_kernels_of_this_cpu(user):
+    """The cvxopt wheel's OpenBLAS gets the kernel family of this CPU, a user's choice wins,
+    and the variable is not left behind for other libraries."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+    if user is not None:
+        env["OPENBLAS_CORETYPE"] = user
+    out = subprocess.run([sys.executable, "-c", _CORENAME], env=env, capture_output=True, text=True,
+                         check=True).stdout.split()
+    if out == ["no-bundled-openblas"]:
+        pytest.skip("cvxopt has no bundled OpenBLAS here")
+    corename, left, detected = out
+    assert left == (user or "-")
+    want = user or (None if detected == "None" else detected)
+    if want is None:
+        pytest.skip("no AVX2 on this CPU: OpenBLAS chooses its kernels itself")
+    assert corename.lower() == want.lower()
