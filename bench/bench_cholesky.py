@@ -10,13 +10,20 @@ preset's strings (the pattern is the solver's; a shift makes it positive
 definite). Rows: scipy SuperLU (MMD on AᵀA + A, diagonal pivots: the
 solver's former linear algebra), CHOLMOD with its default ordering (AMD) and
 CHOLMOD with METIS nested dissection of the vertex graph (the solver's
-choice). Median of 3 numeric factorizations; the symbolic analysis is timed
-separately (done once per solve).
+choice), and that last one again in a subprocess whose OpenBLAS (cvxopt's
+bundled 0.3.15) runs its Prescott (SSE3) kernels, what its own CPU detection
+falls back to on recent Xeons (see :mod:`design.inflation.cholesky`). Median
+of 3 numeric factorizations; the symbolic analysis is timed separately (done
+once per solve). The BLAS kernels in use are named in the method column.
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
+import glob
+import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -48,14 +55,28 @@ def _median_time(fn, repeat: int = 3) -> float:
     return float(np.median(times))
 
 
+def _kernels() -> str:
+    """The kernel family cvxopt's bundled OpenBLAS runs (after the solver's import of cvxopt)."""
+    import cvxopt
+
+    libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
+    if not libs:
+        return "BLAS ?"
+    lib = ctypes.CDLL(libs[0])
+    lib.openblas_get_corename.restype = ctypes.c_char_p
+    return "OpenBLAS " + lib.openblas_get_corename().decode()
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="vault1 at 40 mm only")
+    ap.add_argument("--metis-only", action="store_true", help=argparse.SUPPRESS)   # the subprocess's rows
     args = ap.parse_args(argv)
     cases = [("vault1", 40.0)] if args.quick else [("vault1", 20.0), ("vault2", 20.0)]
-    print("| preset | mattress (mm) | resolution (mm) | unknowns | method | symbolic (s) | numeric (s) "
-          "| factor non-zeros |")
-    print("|---|---|---|---|---|---|---|---|")
+    if not args.metis_only:
+        print("| preset | mattress (mm) | resolution (mm) | unknowns | method | symbolic (s) | numeric (s) "
+              "| factor non-zeros |")
+        print("|---|---|---|---|---|---|---|---|", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for preset, res in cases:
             design = designed_preset(preset, Path(tmp) / preset)
@@ -74,14 +95,23 @@ def main(argv=None) -> int:
                 lu[0] = spla.splu(a, permc_spec="MMD_AT_PLUS_A",
                                   options=dict(SymmetricMode=True, DiagPivotThresh=0.0))
 
-            t = _median_time(superlu)
-            print(head + f"| SuperLU (MMD) | - | {t:.3f} | {lu[0].L.nnz} |", flush=True)
-            for name, groups in (("CHOLMOD (AMD)", None), ("CHOLMOD (METIS, vertex graph)", asm.free // 3)):
+            methods = [("CHOLMOD (AMD)", None), ("CHOLMOD (METIS, vertex graph)", asm.free // 3)]
+            if args.metis_only:
+                methods = methods[1:]
+            else:
+                t = _median_time(superlu)
+                print(head + f"| SuperLU (MMD) | - | {t:.3f} | {lu[0].L.nnz} |", flush=True)
+            for name, groups in methods:
                 t0 = time.perf_counter()
                 chol = ShiftedCholesky(h, groups)
                 t_sym = time.perf_counter() - t0
                 t = _median_time(lambda: chol.factor(h, mu))
-                print(head + f"| {name} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |", flush=True)
+                print(head + f"| {name}, {_kernels()} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |",
+                      flush=True)
+    if not args.metis_only:
+        env = dict(os.environ, OPENBLAS_CORETYPE="Prescott")
+        subprocess.run([sys.executable, __file__, "--metis-only"] + (["--quick"] if args.quick else []),
+                       env=env, check=True)
     return 0
 
 
