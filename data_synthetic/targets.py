@@ -29,8 +29,7 @@ from design.curvature import graph_curvature
 from design.mattress import Mattress, triangulate_mattress
 from design.target import Target
 
-__all__ = ["AnalyticSurface", "cylinder", "cone", "sphere_cap", "saddle", "parametric_mesh", "preset",
-           "PRESETS"]
+__all__ = ["AnalyticSurface", "cylinder", "cone", "sphere_cap", "saddle", "parametric_mesh"]
 
 
 @dataclass(frozen=True)
@@ -166,25 +165,3 @@ def saddle(a: float = 0.5, b: float = 1.0, *, extent=(1.2, 1.0), spacing: float 
     mesh = parametric_mesh(fn, (-extent[0] / 2, extent[0] / 2), (-extent[1] / 2, extent[1] / 2),
                            spacing=spacing, name=f"saddle a{a * 1e3:.0f} b{b * 1e3:.0f}mm")
     return AnalyticSurface(mesh, "saddle", {"a": a, "b": b}, derivs)
-
-
-def preset(name: str):
-    """A preset target and its mattress: ``vault1``, ``saddle``, ``dome`` (830 × 740 mm),
-    ``vault2``, ``roof`` (2600 × 1600 mm).
-
-    Returns
-    -------
-    target : design.target.Target
-    mattress : design.mattress.Mattress
-
-    Raises
-    ------
-    airmat.errors.InputError
-        For an unknown name (the message lists the presets).
-    """
-    from data_synthetic.presets import preset as _preset
-
-    return _preset(name)
-
-
-PRESETS = ("vault1", "saddle", "dome", "vault2", "roof")

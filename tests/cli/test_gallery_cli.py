@@ -27,3 +27,10 @@ def test_unknown_preset_exits_2_with_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tent" in err[0]
     assert not (tmp_path / "gallery.md").exists()
+
+
+def test_gallery_lists_every_preset_the_generator_has():
+    from airmat.cli.gallery import PRESETS as GALLERY
+    from data_synthetic.presets import PRESETS
+
+    assert GALLERY == PRESETS

@@ -6,8 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from airmat.errors import InputError
-from data_synthetic.presets import PRESETS
-from data_synthetic.targets import cone, cylinder, preset, saddle, sphere_cap
+from data_synthetic.presets import PRESETS, preset
+from data_synthetic.targets import cone, cylinder, saddle, sphere_cap
 from design.curvature import graph_curvature
 
 
