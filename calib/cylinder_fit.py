@@ -278,8 +278,8 @@ def _summarize(cand, frame, final, used, n_points, n_support, sigmas, n_iter, sc
     q_lo, q_hi = np.quantile(s, [0.005, 0.995])
     arc = float(np.degrees((q_hi - q_lo) / 0.99 * kappa))
     axis = frame.axis * np.sign(frame.axis[np.argmax(np.abs(frame.axis))])
-    if not final.converged:
-        log.warning("cylinder least squares did not converge: %s", final.message)
+    if not final.converged:                  # the callers warn, naming the scan
+        log.debug("cylinder least squares did not converge: %s", final.message)
     return CylinderFit(radius=np.inf if flat else 1.0 / kappa, kappa=kappa, kappa_se=se, axis=axis,
                        center=center, inlier_fraction=frac, rms=rms, arc_deg=arc, n_points=n_points,
                        n_inliers=n_inl, n_support=n_support, noise=noise, kappa_se_iid=se_iid,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 import sys
 
@@ -37,6 +38,8 @@ def run(args) -> int:
         fit = fit_cylinder(scan.points, seed=args.seed, noise=noise)
     except InputError as err:
         raise err.with_path(scan.path)
+    if not fit.converged:
+        logging.getLogger("airmat").warning("%s: cylinder fit did not converge (%s)", scan.path, fit.message)
     json.dump(fit_to_json(fit, scan), sys.stdout, indent=2)
     sys.stdout.write("\n")
     return 0

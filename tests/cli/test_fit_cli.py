@@ -92,3 +92,23 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys, case):
     if case != "bad_noise":
         assert str(path) in lines[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_a_fit_that_did_not_converge_is_warned_once_naming_the_scan(scan_mm, capsys, monkeypatch):
+    import dataclasses
+
+    import calib.cylinder_fit as cf
+
+    real = cf.full_resolution_fit
+
+    def stopped(*args, **kwargs):                       # the last least squares ran out of iterations
+        frame, final, used, n_more = real(*args, **kwargs)
+        return frame, dataclasses.replace(final, converged=False, message="max_nfev reached"), used, n_more
+
+    monkeypatch.setattr(cf, "full_resolution_fit", stopped)
+    path, _ = scan_mm
+    code, out, err = _run(["fit", str(path)], capsys)
+    assert code == 0
+    assert json.loads(out)["converged"] is False
+    warnings = [ln for ln in err.splitlines() if "did not converge" in ln]
+    assert len(warnings) == 1 and str(path) in warnings[0] and "max_nfev reached" in warnings[0]
