@@ -16,7 +16,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py",
-           "bench_design.py", "bench_inflation.py"]
+           "bench_design.py", "bench_inflation.py", "bench_check.py"]
 
 
 def main(argv=None) -> int:

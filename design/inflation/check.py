@@ -5,15 +5,22 @@
 double-layer mesh, inflates it three times (strings at their median,
 lo95 and hi95 lengths, each simulated at l + 2Δ) and compares each result
 with Ŝ. SI units.
+
+The three runs are independent and each is serial (the sparse Cholesky is
+single-threaded), so ``workers > 1`` runs them in that many processes; the
+results are the same as one after the other.
 """
 
 from __future__ import annotations
 
 import logging
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from airmat.progress import progress, set_progress
 from design.inflation.compare import Deviation, deviation, realized_curvature
 from design.inflation.design_folder import LENGTH_KEYS, DesignFolder
 from design.inflation.mesh import build_mattress_mesh
@@ -49,8 +56,29 @@ class DesignCheck:
         return all(r.inflation.converged for r in self.runs.values())
 
 
+def _quiet_worker() -> None:
+    """A worker process draws no progress bars and prints no log records (the parent reports)."""
+    set_progress(False)
+    logging.getLogger().addHandler(logging.NullHandler())
+
+
+def _inflate_all(mesh, string_sets: list, params: Parameters, strict: bool, workers: int) -> list:
+    """``inflate`` for each string set (None: no strings), in ``workers`` processes when > 1."""
+    if workers <= 1 or len(string_sets) == 1:
+        return [inflate(mesh, s, params=params, strict=strict) for s in string_sets]
+    with ProcessPoolExecutor(max_workers=min(workers, len(string_sets)), initializer=_quiet_worker,
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
+        with progress(total=len(futures), desc=f"inflate ({min(workers, len(futures))} processes)",
+                      unit="run") as bar:
+            for f in futures:
+                f.exception()               # wait for it
+                bar.update(1)
+        return [f.result() for f in futures]
+
+
 def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Parameters = Parameters(),
-                 envelope: bool = True, strict: bool = False) -> DesignCheck:
+                 envelope: bool = True, strict: bool = False, workers: int = 1) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -65,6 +93,8 @@ def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Par
         Also run the lo95 and hi95 lengths.
     strict : bool
         Raise ConvergenceError when a run does not converge.
+    workers : int
+        Processes for the runs (1: one after the other, in this process).
 
     Raises
     ------
@@ -73,10 +103,11 @@ def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Par
     """
     mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=resolution)
     check_resolution(design.strings(), resolution)
+    which_runs = LENGTH_KEYS if envelope else ("median",)
+    string_sets = [design.strings(which) for which in which_runs]
+    inflations = _inflate_all(mesh, [s if len(s) else None for s in string_sets], params, strict, workers)
     runs = {}
-    for which in LENGTH_KEYS if envelope else ("median",):
-        strings = design.strings(which)
-        inf = inflate(mesh, strings if len(strings) else None, params=params, strict=strict)
+    for which, inf in zip(which_runs, inflations):
         if not inf.converged:
             log.warning("inflation with the %s string lengths did not converge: %s", which, inf.message)
         dev = deviation(inf, design.approx_xyz, design.approx_uv)

@@ -63,6 +63,7 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     ("coarse", "too coarse"),
     ("fine", "limit 200000"),
     ("no_surface", "approx_surface.ply"),
+    ("jobs", "--jobs"),
 ])
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, case, words):
     folder = tmp_path / "design"
@@ -79,6 +80,9 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ca
     elif case == "fine":
         make_design(folder)
         args = ["--resolution-mm", "1"]
+    elif case == "jobs":
+        make_design(folder)
+        args = ["--jobs", "0"]
     elif case == "no_surface":
         make_design(folder)
         (folder / "approx_surface.ply").unlink()
@@ -90,3 +94,27 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ca
     assert len(err) == 1 and words in err[0], err
     assert [p.name for p in out.iterdir()] == ["inflate.json"]
     assert (out / "inflate.json").read_text() == "previous good output"
+
+
+def _without_times(doc):
+    """inflate.json without its wall-clock times."""
+    if isinstance(doc, dict):
+        return {k: _without_times(v) for k, v in doc.items() if "seconds" not in k}
+    if isinstance(doc, list):
+        return [_without_times(v) for v in doc]
+    return doc
+
+
+def test_runs_in_worker_processes_give_the_same_files(tmp_path, capsys):
+    """--jobs 2 runs median / lo95 / hi95 in two processes: the same numbers and mesh as --jobs 1."""
+    design = make_design(tmp_path / "design")
+    docs, plys = [], []
+    for jobs in ("1", "2"):
+        out = tmp_path / f"out{jobs}"
+        assert main(["inflate", str(design), "--out", str(out), "--resolution-mm", "50", "--jobs", jobs]) == 0
+        docs.append(json.loads((out / "inflate.json").read_text()))
+        plys.append((out / "inflated.ply").read_bytes())
+    assert _without_times(docs[0]) == _without_times(docs[1])
+    assert plys[0] == plys[1]
+    lo, hi = (docs[0]["envelope"][k]["rms_mm"] for k in ("lo95", "hi95"))
+    assert lo != hi                                      # three different runs, not one copied
