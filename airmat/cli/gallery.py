@@ -18,8 +18,8 @@ def add_parser(sub, parents):
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--out", default="out/gallery", metavar="DIR", help="output folder (default out/gallery)")
     p.add_argument("--presets", default=",".join(PRESETS), help="comma-separated presets (default: all five)")
-    p.add_argument("--resolution-mm", default="25",
-                   help="mesh edge length of the inflation check (default 25: the large mattress in < 1 min per run)")
+    p.add_argument("--resolution-mm", default="20",
+                   help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="calibration folder (default: the paper's values, UNCALIBRATED)")
     p.set_defaults(func=run)
