@@ -10,19 +10,20 @@ ordering is METIS's nested dissection (pymetis) of the *vertex* graph, each
 vertex's three coordinates kept together, which CHOLMOD as built in cvxopt
 lacks (it falls back to AMD).
 
-Measured on Newton matrices of U_B (``bench/bench_cholesky.py``): vault1 on the small mattress at 20 mm, 10 536 unknowns: 0.08 s per
-numeric factorization (AMD: 0.2 s; scipy's SuperLU, best ordering: 0.5 s);
-vault2 on the large mattress at 20 mm, 64 920 unknowns: 1.8 s (AMD: 4.1 s),
-25 M non-zeros in the factor (AMD: 36 M).
+Measured on Newton matrices of U_B (``bench/bench_cholesky.py``), per
+numeric factorization: vault1 on the small mattress at 20 mm, 10 536
+unknowns: 0.054 s (AMD: 0.067 s; scipy's SuperLU: 0.70 s); vault2 on the
+large mattress at 20 mm, 64 920 unknowns: 0.83 s (AMD: 1.19 s; SuperLU:
+11.7 s), 24 M non-zeros in the factor (AMD: 28 M).
 
 cvxopt's wheel (1.3.x) bundles OpenBLAS 0.3.15, whose run-time CPU
 detection predates recent Xeons: on this project's Sapphire/Emerald Rapids
 machines it falls back to its Prescott (SSE3) kernels, and the dense
-supernode updates of the factorization run about 3x slower than with the
-AVX-512 ones (2.3 s against 0.8 s per factorization, large mattress at
-20 mm). :func:`openblas_coretype` picks the kernel family from the CPU's
-flags, and it is handed to that OpenBLAS (``OPENBLAS_CORETYPE``, its
-documented override) while cvxopt loads; a value the user has set wins.
+supernode updates of the factorization run about 3.8x slower than with the
+AVX-512 ones (3.2 s against 0.83 s, large mattress at 20 mm).
+:func:`openblas_coretype` picks the kernel family from the CPU's flags, and
+it is handed to that OpenBLAS (``OPENBLAS_CORETYPE``, its documented
+override) while cvxopt loads; a value the user has set wins.
 """
 
 from __future__ import annotations
