@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import os
-
+from airmat.cli._jobs import add_jobs_argument, jobs
 from airmat.errors import InputError
 
 
@@ -19,8 +18,7 @@ def add_parser(sub, parents):
     p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
     p.add_argument("--no-envelope", action="store_true",
                    help="skip the runs with every string at its lo95 and hi95 length")
-    p.add_argument("--jobs", type=int, default=None, metavar="N",
-                   help="inflation runs at a time, one process each (default: the CPU cores, at most 3)")
+    add_jobs_argument(p)
     p.set_defaults(func=run)
 
 
@@ -41,12 +39,10 @@ def run(args) -> int:
         if not (args.pressure_pa > 0):
             raise InputError(f"--pressure-pa must be > 0, got {args.pressure_pa!r}")
         params = replace(params, pressure=args.pressure_pa)
-    jobs = min(3, os.cpu_count() or 1) if args.jobs is None else args.jobs
-    if jobs < 1:
-        raise InputError(f"--jobs must be at least 1, got {jobs}")
+    workers = jobs(args)
     design = read_design_folder(args.design)
     check = check_design(design, resolution=args.resolution_mm * MM, params=params,
-                         envelope=not args.no_envelope, workers=jobs)
+                         envelope=not args.no_envelope, workers=workers)
     with staged_dir(args.out) as tmp:
         doc = write_check(check, tmp)
     print(summary_text(doc, args.out))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from airmat.cli._jobs import add_jobs_argument, jobs
 from airmat.errors import InputError
 
 
@@ -14,6 +15,7 @@ def add_parser(sub, parents):
     p.add_argument("--l-over-L", dest="ratios", default="0.3,0.4,0.5,0.6,0.7,0.8,0.9",
                    help="string length ratios (default 0.3,...,0.9)")
     p.add_argument("--resolution-mm", type=float, default=40.0, help="mesh edge length (default 40)")
+    add_jobs_argument(p)
     p.set_defaults(func=run)
 
 
@@ -73,7 +75,8 @@ def run(args) -> int:
         raise InputError(f"--l-over-L {args.ratios!r}: ratios must lie in (0, 1)")
     if not (0 < args.resolution_mm <= 75):
         raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
-    points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed)
+    workers = jobs(args)
+    points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers)
     with staged_dir(args.out) as tmp:
         rows = _write(points, tmp, args.resolution_mm)
     print("l/L   cylinder fit κ (1/m)   along strings κ (1/m)   Equation 3, Δ = 0 (1/m)")

@@ -6,26 +6,22 @@ double-layer mesh, inflates it three times (strings at their median,
 lo95 and hi95 lengths, each simulated at l + 2Δ) and compares each result
 with Ŝ. SI units.
 
-The three runs are independent and each is serial (the sparse Cholesky is
-single-threaded), so ``workers > 1`` runs them in that many processes; the
-results are the same as one after the other.
+The three runs are independent, so ``workers > 1`` runs them in that many
+processes (:func:`~design.inflation.simulate.inflate_many`).
 """
 
 from __future__ import annotations
 
 import logging
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
-from airmat.progress import progress, set_progress
 from design.inflation.compare import Deviation, deviation, realized_curvature
 from design.inflation.design_folder import LENGTH_KEYS, DesignFolder
 from design.inflation.mesh import build_mattress_mesh
 from design.inflation.model import Parameters
-from design.inflation.simulate import Inflation, inflate
+from design.inflation.simulate import Inflation, inflate_many
 from design.inflation.strings import check_resolution
 
 __all__ = ["CheckRun", "DesignCheck", "check_design"]
@@ -56,27 +52,6 @@ class DesignCheck:
         return all(r.inflation.converged for r in self.runs.values())
 
 
-def _quiet_worker() -> None:
-    """A worker process draws no progress bars and prints no log records (the parent reports)."""
-    set_progress(False)
-    logging.getLogger().addHandler(logging.NullHandler())
-
-
-def _inflate_all(mesh, string_sets: list, params: Parameters, strict: bool, workers: int) -> list:
-    """``inflate`` for each string set (None: no strings), in ``workers`` processes when > 1."""
-    if workers <= 1 or len(string_sets) == 1:
-        return [inflate(mesh, s, params=params, strict=strict) for s in string_sets]
-    with ProcessPoolExecutor(max_workers=min(workers, len(string_sets)), initializer=_quiet_worker,
-                             mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
-        with progress(total=len(futures), desc=f"inflate ({min(workers, len(futures))} processes)",
-                      unit="run") as bar:
-            for f in futures:
-                f.exception()               # wait for it
-                bar.update(1)
-        return [f.result() for f in futures]
-
-
 def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Parameters = Parameters(),
                  envelope: bool = True, strict: bool = False, workers: int = 1) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
@@ -105,7 +80,8 @@ def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Par
     check_resolution(design.strings(), resolution)
     which_runs = LENGTH_KEYS if envelope else ("median",)
     string_sets = [design.strings(which) for which in which_runs]
-    inflations = _inflate_all(mesh, [s if len(s) else None for s in string_sets], params, strict, workers)
+    inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
+                              strict=strict, workers=workers)
     runs = {}
     for which, inf in zip(which_runs, inflations):
         if not inf.converged:

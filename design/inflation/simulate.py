@@ -16,13 +16,16 @@ default wrinkling membrane needs no seed.
 from __future__ import annotations
 
 import logging
+import multiprocessing
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from airmat.errors import ConvergenceError
+from airmat.progress import progress, set_progress
 from design.inflation.assembly import build_assembler
 from design.inflation.energy import block_pattern
 from design.inflation.mesh import MattressMesh, build_mattress_mesh
@@ -31,7 +34,7 @@ from design.inflation.prolong import coarse_resolutions, prolong
 from design.inflation.solver import NewtonSystem, rigid_pins, solve
 from design.inflation.strings import StringSet
 
-__all__ = ["Inflation", "inflate", "start_positions"]
+__all__ = ["Inflation", "inflate", "inflate_many", "start_positions"]
 
 log = logging.getLogger(__name__)
 
@@ -227,3 +230,51 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     return Inflation(mesh=mesh, xyz=x, converged=result.converged, n_iter=n_iter, residual=result.residual,
                      message=result.message, seconds=time.perf_counter() - t0, energy=result.energy,
                      stages=n_stages, string_lengths=lengths)
+
+
+def _quiet_worker() -> None:
+    """A worker process draws no progress bars and prints no log records (the parent reports)."""
+    set_progress(False)
+    logging.getLogger().addHandler(logging.NullHandler())
+
+
+def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = Parameters(),
+                 strict: bool = False, workers: int = 1, desc: str = "inflate") -> list:
+    """:func:`inflate` ``mesh`` once per string set, in ``workers`` processes when > 1.
+
+    Each inflation is serial (the sparse Cholesky is single-threaded), so
+    independent runs (a design's median / lo95 / hi95 lengths, the ratios of
+    the validation) can share the cores. The results are the same as one
+    after the other: same code, same inputs, no random step.
+
+    Parameters
+    ----------
+    mesh : MattressMesh
+    string_sets : list of StringSet or None
+        One inflation each (None: no strings); rest lengths l* (m).
+    params : Parameters
+    strict : bool
+        Raise :class:`ConvergenceError` when a run does not converge (from
+        the worker, as raised there).
+    workers : int
+        Processes (1: one after the other, in this process).
+    desc : str
+        Label of the progress bar over the runs.
+
+    Returns
+    -------
+    list of Inflation
+        In the order of ``string_sets``.
+    """
+    if workers <= 1 or len(string_sets) == 1:
+        return [inflate(mesh, s, params=params, strict=strict)
+                for s in progress(string_sets, desc=desc, unit="run")]
+    n = min(workers, len(string_sets))
+    with ProcessPoolExecutor(max_workers=n, initializer=_quiet_worker,
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
+        with progress(total=len(futures), desc=f"{desc} ({n} processes)", unit="run") as bar:
+            for f in futures:
+                f.exception()               # wait for it
+                bar.update(1)
+        return [f.result() for f in futures]

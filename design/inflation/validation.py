@@ -17,13 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import NotACylinderError
-from airmat.progress import progress
 from calib.cylinder_fit import fit_cylinder
 from calib.model import kappa1
 from design.inflation.compare import realized_curvature, surface_at
 from design.inflation.mesh import build_mattress_mesh
 from design.inflation.model import Parameters
-from design.inflation.simulate import inflate
+from design.inflation.simulate import inflate_many
 from design.inflation.strings import StringSet
 
 __all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3"]
@@ -92,18 +91,33 @@ def _measure(inf, layout: SpecimenLayout, seed: int):
 
 
 def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: SpecimenLayout = SpecimenLayout(),
-                       resolution: float = 0.04, params: Parameters = Parameters(), seed: int = 0):
+                       resolution: float = 0.04, params: Parameters = Parameters(), seed: int = 0,
+                       workers: int = 1):
     """Simulate the specimen for each l/L and measure its curvature.
+
+    Parameters
+    ----------
+    ratios : sequence of float
+        The l/L to simulate.
+    layout : SpecimenLayout
+    resolution : float
+        Mesh edge length (m).
+    params : Parameters
+    seed : int
+        Seed of the cylinder fit.
+    workers : int
+        Processes for the inflations (see :func:`~design.inflation.simulate.inflate_many`).
 
     Returns
     -------
     list of ValidationPoint
     """
     mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
+    inflations = inflate_many(mesh, [specimen_strings(layout, float(r) * layout.L) for r in ratios],
+                              params=params, workers=workers, desc="validate")
     points = []
-    for r in progress(list(ratios), desc="validate", unit="specimen"):
+    for r, inf in zip(ratios, inflations):
         l = float(r) * layout.L
-        inf = inflate(mesh, specimen_strings(layout, l), params=params)
         try:
             fit = _measure(inf, layout, seed)
             k, se = fit.kappa, fit.kappa_se

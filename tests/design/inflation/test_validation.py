@@ -21,7 +21,7 @@ def test_specimen_strings_are_chained_staggered_and_inside():
 
 @pytest.mark.slow
 def test_curvature_grows_as_strings_shorten():
-    pts = validate_equation3((0.45, 0.8), resolution=0.05)
+    pts = validate_equation3((0.45, 0.8), resolution=0.05, workers=2)     # also the worker processes
     assert all(p.converged for p in pts)
     short, long_ = pts
     assert short.kappa_strings > long_.kappa_strings > 0
