@@ -275,6 +275,9 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
         futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
         with progress(total=len(futures), desc=f"{desc} ({n} processes)", unit="run") as bar:
             for f in futures:
-                f.exception()               # wait for it
+                if f.exception() is not None:       # waits for it; a failed run ends the others
+                    for g in futures:
+                        g.cancel()
+                    raise f.exception()
                 bar.update(1)
         return [f.result() for f in futures]

@@ -118,3 +118,4 @@ def test_runs_in_worker_processes_give_the_same_files(tmp_path, capsys):
     assert plys[0] == plys[1]
     lo, hi = (docs[0]["envelope"][k]["rms_mm"] for k in ("lo95", "hi95"))
     assert lo != hi                                      # three different runs, not one copied
+
