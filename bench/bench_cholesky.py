@@ -20,8 +20,6 @@ once per solve). The BLAS kernels in use are named in the method column.
 from __future__ import annotations
 
 import argparse
-import ctypes
-import glob
 import os
 import subprocess
 import sys
@@ -39,7 +37,7 @@ import scipy.sparse.linalg as spla  # noqa: E402
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 from design.inflation.assembly import build_assembler  # noqa: E402
-from design.inflation.cholesky import ShiftedCholesky  # noqa: E402
+from design.inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels  # noqa: E402
 from design.inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
 from design.inflation.mesh import build_mattress_mesh  # noqa: E402
 from design.inflation.model import build_model  # noqa: E402
@@ -53,18 +51,6 @@ def _median_time(fn, repeat: int = 3) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return float(np.median(times))
-
-
-def _kernels() -> str:
-    """The kernel family cvxopt's bundled OpenBLAS runs (after the solver's import of cvxopt)."""
-    import cvxopt
-
-    libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
-    if not libs:
-        return "BLAS ?"
-    lib = ctypes.CDLL(libs[0])
-    lib.openblas_get_corename.restype = ctypes.c_char_p
-    return "OpenBLAS " + lib.openblas_get_corename().decode()
 
 
 def main(argv=None) -> int:
@@ -106,7 +92,8 @@ def main(argv=None) -> int:
                 chol = ShiftedCholesky(h, groups)
                 t_sym = time.perf_counter() - t0
                 t = _median_time(lambda: chol.factor(h, mu))
-                print(head + f"| {name}, {_kernels()} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |",
+                blas = f"OpenBLAS {cvxopt_blas_kernels() or '?'}"
+                print(head + f"| {name}, {blas} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |",
                       flush=True)
     if not args.metis_only:
         env = dict(os.environ, OPENBLAS_CORETYPE="Prescott")

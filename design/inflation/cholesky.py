@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype"]
+__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "cvxopt_blas_kernels"]
 
 
 def openblas_coretype(flags: set[str] | None = None) -> str | None:
@@ -88,6 +88,21 @@ def _import_cvxopt():
 
 
 cholmod, matrix, spmatrix = _import_cvxopt()
+
+
+def cvxopt_blas_kernels() -> str | None:
+    """The kernel family cvxopt's bundled OpenBLAS runs (e.g. ``"SkylakeX"``), or None without one."""
+    import ctypes
+    import glob
+
+    import cvxopt
+
+    libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
+    if not libs:
+        return None
+    lib = ctypes.CDLL(libs[0])                  # already loaded by cvxopt: the same library
+    lib.openblas_get_corename.restype = ctypes.c_char_p
+    return lib.openblas_get_corename().decode()
 
 
 def nested_dissection(rows: np.ndarray, cols: np.ndarray, groups: np.ndarray) -> np.ndarray:
