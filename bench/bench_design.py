@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from data_synthetic.presets import PRESETS, preset  # noqa: E402
+from design.presets import PRESETS, preset  # noqa: E402
 from design.pipeline import DesignParams, design, write_design  # noqa: E402
 
 STAGES = ("preset", "triangulate", "relax", "curvature", "report", "transfer", "stripes", "lengths", "export")

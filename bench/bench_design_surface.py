@@ -21,7 +21,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from data_synthetic.presets import PRESETS, preset  # noqa: E402
+from design.presets import PRESETS, preset  # noqa: E402
 from design.surface import approximate_surface, mattress_field  # noqa: E402
 
 #: the paper's Table 1: σ avg // max deviation, |κ1| avg // max, |κ2| avg // max

@@ -10,7 +10,7 @@ from pathlib import Path
 def designed_preset(preset: str, folder: Path):
     """Design ``preset`` (paper calibration values) into ``folder``; return its DesignFolder."""
     from airmat.cli import main
-    from design.inflation.design_folder import read_design_folder
+    from check.design_folder import read_design_folder
 
     with contextlib.redirect_stdout(io.StringIO()):
         if main(["design", "--preset", preset, "--out", str(folder), "-q"]) != 0:

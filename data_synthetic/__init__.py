@@ -7,12 +7,12 @@ One generator per module (functions are not re-exported under their module's nam
 - ``data_synthetic.ply_write.write_ply`` -- PLY in every common encoding.
 - ``data_synthetic.calibration_set.calibration_set`` -- scans + manifest.csv + truth.json.
 - ``data_synthetic.targets`` -- analytic surfaces (cylinder, cone, sphere cap, saddle).
-- ``data_synthetic.presets.preset`` -- the five target presets with their mattress.
+- ``design.presets.preset`` -- the five target presets with their mattress.
 """
 
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
 
 from data_synthetic.ply_write import write_ply
-from data_synthetic.presets import preset
 
-__all__ = ["write_ply", "preset"]
+
+__all__ = ["write_ply"]

@@ -62,7 +62,7 @@ def _positive(args, names):
 
 def _mattress_and_target(args):
     """The mattress, and a function that loads the target (called after the cheap checks)."""
-    from data_synthetic.presets import preset
+    from design.presets import preset
     from design.mattress import Mattress
     from design.target import load_target
 

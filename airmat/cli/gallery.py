@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-# data_synthetic.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
+# design.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
 PRESETS = ("vault1", "saddle", "dome", "vault2", "roof")
 HEADER = ("| size | model | σ (min // avg // max) | abs κ₁ (avg // max) [1/m] | abs κ₂ (avg // max) [1/m] "
           "| strings | constructible | deviation RMS // max [mm] | RMS % diag | lo95 // hi95 RMS [mm] "

@@ -27,10 +27,10 @@ def run(args) -> int:
 
     from airmat.atomic import staged_dir
     from airmat.units import MM
-    from design.inflation.check import check_design
-    from design.inflation.design_folder import read_design_folder
-    from design.inflation.model import Parameters
-    from design.inflation.report import summary_text, write_check
+    from check.inflation_check import check_design
+    from check.design_folder import read_design_folder
+    from inflation.model import Parameters
+    from check.report import summary_text, write_check
 
     if not (args.resolution_mm > 0):
         raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")

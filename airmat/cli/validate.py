@@ -65,7 +65,7 @@ def _write(points, folder, resolution_mm):
 def run(args) -> int:
     from airmat.atomic import staged_dir
     from airmat.units import MM
-    from design.inflation.validation import validate_equation3
+    from check.validation import validate_equation3
 
     try:
         ratios = [float(x) for x in args.ratios.split(",") if x.strip()]

@@ -1,4 +1,4 @@
-"""Analytic targets and presets (data_synthetic.targets, data_synthetic.presets)."""
+"""Analytic targets and presets (data_synthetic.targets, design.presets)."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from airmat.errors import InputError
-from data_synthetic.presets import PRESETS, preset
+from design.presets import PRESETS, preset
 from data_synthetic.targets import cone, cylinder, saddle, sphere_cap
 from design.curvature import graph_curvature
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from data_synthetic.presets import preset
+from design.presets import preset
 from data_synthetic.targets import cone, cylinder, sphere_cap
 from design.curvature import rim_vertices
 from design.field import MattressField

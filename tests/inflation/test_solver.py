@@ -5,14 +5,14 @@ import pytest
 import trimesh
 
 from airmat.errors import ConvergenceError, InputError
-from design.inflation.assembly import build_assembler
-from design.inflation.energy import (block_pattern, energy, energy_and_gradient, hessian_blocks,
+from inflation.assembly import build_assembler
+from inflation.energy import (block_pattern, energy, energy_and_gradient, hessian_blocks,
                                      pressure_forces, smoothing_blocks, spring_profile)
-from design.inflation.mesh import build_mattress_mesh, locate
-from design.inflation.model import Parameters, build_model
-from design.inflation.simulate import inflate
-from design.inflation.solver import rigid_pins, solve
-from design.inflation.strings import StringSet, check_resolution
+from inflation.mesh import build_mattress_mesh, locate
+from inflation.model import Parameters, build_model
+from inflation.simulate import inflate
+from inflation.solver import rigid_pins, solve
+from inflation.strings import StringSet, check_resolution
 
 W, H, D = 0.5, 0.3, 0.07
 

@@ -19,11 +19,11 @@ import numpy as np
 from airmat.errors import NotACylinderError
 from calib.cylinder_fit import fit_cylinder
 from calib.model import kappa1
-from design.inflation.compare import realized_curvature, surface_at
-from design.inflation.mesh import build_mattress_mesh
-from design.inflation.model import Parameters
-from design.inflation.simulate import inflate_many
-from design.inflation.strings import StringSet
+from check.compare import realized_curvature, surface_at
+from inflation.mesh import build_mattress_mesh
+from inflation.model import Parameters
+from inflation.simulate import inflate_many
+from inflation.strings import StringSet
 
 __all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3"]
 
@@ -106,7 +106,7 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
     seed : int
         Seed of the cylinder fit.
     workers : int
-        Processes for the inflations (see :func:`~design.inflation.simulate.inflate_many`).
+        Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
 
     Returns
     -------

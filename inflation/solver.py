@@ -3,7 +3,7 @@
 Each iteration assembles the sparse Hessian (exact by default, or with every
 spring block projected PSD; exact pressure term; constant smoothing) on a
 fixed CSR pattern and solves ``(H + mu I) dx = -g`` by a sparse Cholesky
-factorization (:mod:`design.inflation.cholesky`: CHOLMOD, METIS ordering,
+factorization (:mod:`inflation.cholesky`: CHOLMOD, METIS ordering,
 symbolic analysis once), which also tells whether ``H + mu I`` is positive
 definite. ``mu`` is a Levenberg–Marquardt trust-region shift: raised until
 the matrix is positive definite (compressed edges and the pressure make H
@@ -30,9 +30,9 @@ import scipy.sparse as sp
 
 from airmat.errors import ConvergenceError
 from airmat.progress import progress
-from design.inflation.assembly import build_assembler
-from design.inflation.cholesky import ShiftedCholesky
-from design.inflation.energy import (Model, block_pattern, energy_and_gradient, hessian_blocks,
+from inflation.assembly import build_assembler
+from inflation.cholesky import ShiftedCholesky
+from inflation.energy import (Model, block_pattern, energy_and_gradient, hessian_blocks,
                                      pressure_forces, smoothing_blocks)
 
 __all__ = ["SolveResult", "solve", "rigid_pins", "NewtonSystem"]
@@ -115,7 +115,7 @@ def _residual(model: Model, x: np.ndarray, g_free: np.ndarray) -> float:
 
 
 class NewtonSystem:
-    """Solves ``(H + mu I) dx = -g`` by a sparse Cholesky factorization (:mod:`~design.inflation.cholesky`),
+    """Solves ``(H + mu I) dx = -g`` by a sparse Cholesky factorization (:mod:`~inflation.cholesky`),
     with ``mu`` raised until ``H + mu I`` is positive definite.
 
     After a failure ``mu`` jumps to ``max(10 mu, mu_min, hint / 10)``, ``hint``

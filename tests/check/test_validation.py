@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from design.inflation.validation import SpecimenLayout, specimen_strings, validate_equation3
+from check.validation import SpecimenLayout, specimen_strings, validate_equation3
 
 
 def test_specimen_strings_are_chained_staggered_and_inside():

@@ -1,13 +1,13 @@
 """The inflation check of a design: inflate at the median string lengths and at both tolerance ends.
 
 ``check_design`` reads nothing and writes nothing: give it a
-:class:`~design.inflation.design_folder.DesignFolder`; it builds the
+:class:`~check.design_folder.DesignFolder`; it builds the
 double-layer mesh, inflates it three times (strings at their median,
 lo95 and hi95 lengths, each simulated at l + 2Δ) and compares each result
 with Ŝ. SI units.
 
 The three runs are independent, so ``workers > 1`` runs them in that many
-processes (:func:`~design.inflation.simulate.inflate_many`).
+processes (:func:`~inflation.simulate.inflate_many`).
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.inflation.compare import Deviation, deviation, realized_curvature
-from design.inflation.design_folder import LENGTH_KEYS, DesignFolder
-from design.inflation.mesh import build_mattress_mesh
-from design.inflation.model import Parameters
-from design.inflation.simulate import Inflation, inflate_many
-from design.inflation.strings import check_resolution
+from check.compare import Deviation, deviation, realized_curvature
+from check.design_folder import LENGTH_KEYS, DesignFolder
+from inflation.mesh import build_mattress_mesh
+from inflation.model import Parameters
+from inflation.simulate import Inflation, inflate_many
+from inflation.strings import check_resolution
 
 __all__ = ["CheckRun", "DesignCheck", "check_design"]
 

@@ -7,10 +7,10 @@ import pytest
 def test_a_failing_run_in_a_worker_reaches_the_caller():
     """strict=True: a run that cannot converge raises ConvergenceError, from the worker process too."""
     from airmat.errors import ConvergenceError
-    from design.inflation.mesh import build_mattress_mesh
-    from design.inflation.model import Parameters
-    from design.inflation.simulate import inflate_many
-    from design.inflation.strings import StringSet
+    from inflation.mesh import build_mattress_mesh
+    from inflation.model import Parameters
+    from inflation.simulate import inflate_many
+    from inflation.strings import StringSet
 
     mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
     s = StringSet(np.array([[0.15, 0.15]]), np.array([[0.45, 0.15]]), np.array([True]), np.array([0.12]), ("s",))

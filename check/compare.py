@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from design.inflation.mesh import locate
+from inflation.mesh import locate
 
 __all__ = ["Deviation", "surface_at", "deviation", "realized_curvature"]
 
@@ -47,7 +47,7 @@ def surface_at(inflation, uv):
 
     Parameters
     ----------
-    inflation : design.inflation.simulate.Inflation
+    inflation : inflation.simulate.Inflation
     uv : ndarray of shape (k, 2)
         Points on Ω (m).
 

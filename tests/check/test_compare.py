@@ -5,10 +5,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from calib.model import kappa1
-from design.inflation.compare import deviation, realized_curvature, surface_at
-from design.inflation.mesh import build_mattress_mesh
-from design.inflation.simulate import inflate
-from design.inflation.strings import StringSet
+from check.compare import deviation, realized_curvature, surface_at
+from inflation.mesh import build_mattress_mesh
+from inflation.simulate import inflate
+from inflation.strings import StringSet
 
 W, H, D = 0.6, 0.3, 0.07
 V = np.array([0.075, 0.225])

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from airmat.cli import main
-from design.inflation.check import check_design
-from design.inflation.design_folder import read_design_folder
+from check.inflation_check import check_design
+from check.design_folder import read_design_folder
 
 
 @pytest.mark.slow

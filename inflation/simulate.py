@@ -26,13 +26,13 @@ from scipy.spatial import cKDTree
 
 from airmat.errors import ConvergenceError
 from airmat.progress import progress, set_progress
-from design.inflation.assembly import build_assembler
-from design.inflation.energy import block_pattern
-from design.inflation.mesh import MattressMesh, build_mattress_mesh
-from design.inflation.model import Parameters, build_model
-from design.inflation.prolong import coarse_resolutions, prolong
-from design.inflation.solver import NewtonSystem, rigid_pins, solve
-from design.inflation.strings import StringSet
+from inflation.assembly import build_assembler
+from inflation.energy import block_pattern
+from inflation.mesh import MattressMesh, build_mattress_mesh
+from inflation.model import Parameters, build_model
+from inflation.prolong import coarse_resolutions, prolong
+from inflation.solver import NewtonSystem, rigid_pins, solve
+from inflation.strings import StringSet
 
 __all__ = ["Inflation", "inflate", "inflate_many", "start_positions"]
 
@@ -130,7 +130,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
           tol: float, stages: int, stage_tol: float, max_iter: int, hint_rel: float = 0.0):
     """Solve U_B on ``mesh`` from ``x``, with the string rest lengths ramped from their
     lengths at ``x`` to l* in ``stages`` steps (1: no ramp). ``hint_rel`` seeds the Newton shift
-    (see :class:`~design.inflation.solver.NewtonSystem`).
+    (see :class:`~inflation.solver.NewtonSystem`).
 
     Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``, the model)."""
     model = build_model(mesh, strings, params)
@@ -171,7 +171,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.
 
     The string ramp is solved on the coarsest mesh of the continuation
-    (:func:`~design.inflation.prolong.coarse_resolutions`: the resolution
+    (:func:`~inflation.prolong.coarse_resolutions`: the resolution
     doubled while it stays <= ``coarsest`` and leaves 3 edges along every
     string), then each finer mesh starts from the prolonged coarser solution
     with the strings at l*.

@@ -15,7 +15,7 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.units import MM
-from design.inflation.strings import StringSet
+from inflation.strings import StringSet
 from design.surface_io import read_approx_surface
 
 __all__ = ["DesignFolder", "read_design_folder", "LENGTH_KEYS"]

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from design.inflation.mesh import build_mattress_mesh
-from design.inflation.prolong import coarse_resolutions, prolong
-from design.inflation.simulate import inflate
-from design.inflation.strings import StringSet
+from inflation.mesh import build_mattress_mesh
+from inflation.prolong import coarse_resolutions, prolong
+from inflation.simulate import inflate
+from inflation.strings import StringSet
 
 
 def test_prolongation_reproduces_any_affine_map_of_the_faces():

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from design.inflation.compare import surface_at
-from design.inflation.mesh import build_mattress_mesh
-from design.inflation.model import Parameters
-from design.inflation.simulate import inflate
-from design.inflation.strings import StringSet
+from check.compare import surface_at
+from inflation.mesh import build_mattress_mesh
+from inflation.model import Parameters
+from inflation.simulate import inflate
+from inflation.strings import StringSet
 
 W, H, D = 0.6, 0.4, 0.07
 

@@ -25,7 +25,7 @@ def _run_dict(run) -> dict:
 
 
 def check_dict(check) -> dict:
-    """The inflate.json document of a :class:`~design.inflation.check.DesignCheck`."""
+    """The inflate.json document of a :class:`~check.inflation_check.DesignCheck`."""
     med = check.runs["median"]
     doc = {"airmat_version": __version__, "design": str(check.design.path),
            "resolution_mm": round(check.resolution * M_TO_MM, 3),
