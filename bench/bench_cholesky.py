@@ -23,7 +23,6 @@ import argparse
 import os
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -36,6 +35,7 @@ import scipy.sparse.linalg as spla  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
+from check.inflation_check import design_strings  # noqa: E402
 from inflation.assembly import build_assembler  # noqa: E402
 from inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels  # noqa: E402
 from inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
@@ -63,38 +63,38 @@ def main(argv=None) -> int:
         print("| preset | mattress (mm) | resolution (mm) | unknowns | method | symbolic (s) | numeric (s) "
               "| factor non-zeros |")
         print("|---|---|---|---|---|---|---|---|", flush=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        for preset, res in cases:
-            design = designed_preset(preset, Path(tmp) / preset)
-            mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=res * MM)
-            model = build_model(mesh, design.strings())
-            fixed = rigid_pins(mesh.uv, mesh.top)
-            asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
-            h = asm.assemble(hessian_blocks(model, mesh.vertices * 1.001) + [smoothing_blocks(model)])
-            mu = 1e-2 * float(np.mean(np.abs(h.diagonal())))
-            n = h.shape[0]
-            head = f"| {preset} | {design.width / MM:.0f} x {design.height / MM:.0f} | {res:g} | {n} "
-            a = (h + mu * sp.identity(n, format="csr")).tocsc()
-            lu = [None]
+    for preset, res in cases:
+        design = designed_preset(preset)
+        mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
+                                   resolution=res * MM)
+        model = build_model(mesh, design_strings(design))
+        fixed = rigid_pins(mesh.uv, mesh.top)
+        asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
+        h = asm.assemble(hessian_blocks(model, mesh.vertices * 1.001) + [smoothing_blocks(model)])
+        mu = 1e-2 * float(np.mean(np.abs(h.diagonal())))
+        n = h.shape[0]
+        head = f"| {preset} | {design.mattress.width / MM:.0f} x {design.mattress.height / MM:.0f} | {res:g} | {n} "
+        a = (h + mu * sp.identity(n, format="csr")).tocsc()
+        lu = [None]
 
-            def superlu():
-                lu[0] = spla.splu(a, permc_spec="MMD_AT_PLUS_A",
-                                  options=dict(SymmetricMode=True, DiagPivotThresh=0.0))
+        def superlu():
+            lu[0] = spla.splu(a, permc_spec="MMD_AT_PLUS_A",
+                              options=dict(SymmetricMode=True, DiagPivotThresh=0.0))
 
-            methods = [("CHOLMOD (AMD)", None), ("CHOLMOD (METIS, vertex graph)", asm.free // 3)]
-            if args.metis_only:
-                methods = methods[1:]
-            else:
-                t = _median_time(superlu)
-                print(head + f"| SuperLU (MMD) | - | {t:.3f} | {lu[0].L.nnz} |", flush=True)
-            for name, groups in methods:
-                t0 = time.perf_counter()
-                chol = ShiftedCholesky(h, groups)
-                t_sym = time.perf_counter() - t0
-                t = _median_time(lambda: chol.factor(h, mu))
-                blas = f"OpenBLAS {cvxopt_blas_kernels() or '?'}"
-                print(head + f"| {name}, {blas} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |",
-                      flush=True)
+        methods = [("CHOLMOD (AMD)", None), ("CHOLMOD (METIS, vertex graph)", asm.free // 3)]
+        if args.metis_only:
+            methods = methods[1:]
+        else:
+            t = _median_time(superlu)
+            print(head + f"| SuperLU (MMD) | - | {t:.3f} | {lu[0].L.nnz} |", flush=True)
+        for name, groups in methods:
+            t0 = time.perf_counter()
+            chol = ShiftedCholesky(h, groups)
+            t_sym = time.perf_counter() - t0
+            t = _median_time(lambda: chol.factor(h, mu))
+            blas = f"OpenBLAS {cvxopt_blas_kernels() or '?'}"
+            print(head + f"| {name}, {blas} | {t_sym:.3f} | {t:.3f} | {chol.factor_nnz} |",
+                  flush=True)
     if not args.metis_only:
         env = dict(os.environ, OPENBLAS_CORETYPE="Prescott")
         subprocess.run([sys.executable, __file__, "--metis-only"] + (["--quick"] if args.quick else []),

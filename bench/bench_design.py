@@ -24,7 +24,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from design.presets import PRESETS, preset  # noqa: E402
-from design.pipeline import DesignParams, design, write_design  # noqa: E402
+from design.design_io import write_design  # noqa: E402
+from design.pipeline import DesignParams, design  # noqa: E402
 
 STAGES = ("preset", "triangulate", "relax", "curvature", "report", "transfer", "stripes", "lengths", "export")
 LIMITS = {"small": 10.0, "large": 60.0}

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -37,6 +36,7 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
+from check.inflation_check import design_strings  # noqa: E402
 from inflation.mesh import build_mattress_mesh  # noqa: E402
 from inflation.model import Parameters, build_model  # noqa: E402
 from inflation.simulate import inflate, start_positions  # noqa: E402
@@ -46,9 +46,10 @@ from kangaroo_baseline import kangaroo_solve  # noqa: E402
 
 def _rows(design, res_list, factor, cap_max):
     """One Markdown row per resolution: Newton (string ramp) vs the baseline on the final model."""
-    strings = design.strings()
+    strings = design_strings(design)
     for res in res_list:
-        mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=res * MM)
+        mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
+                                   resolution=res * MM)
         t0 = time.perf_counter()
         newton = inflate(mesh, strings)
         t_newton = time.perf_counter() - t0
@@ -62,7 +63,7 @@ def _rows(design, res_list, factor, cap_max):
         gap = np.linalg.norm(rot.apply(a0) - b0, axis=1).max() / MM
         speed = (f"{base.seconds / t_newton:.1f}x" if base.converged
                  else f"> {base.seconds / t_newton:.1f}x")
-        print(f"| {design.width / MM:.0f} x {design.height / MM:.0f} | {res:g} | {mesh.n_vertices} "
+        print(f"| {design.mattress.width / MM:.0f} x {design.mattress.height / MM:.0f} | {res:g} | {mesh.n_vertices} "
               f"| {t_newton:.1f} | {newton.n_iter} | {newton.converged} "
               f"| {newton.residual:.1e} | {base.seconds:.1f} | {base.n_iter} | {base.residual:.1e} "
               f"| {base.converged} | {speed} | {gap:.1f} |", flush=True)
@@ -84,12 +85,11 @@ def main(argv=None) -> int:
     if args.large_preset and not args.quick:
         runs.append((args.large_preset, [float(r) for r in args.large_resolutions.split(",")]))
     designs = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for preset, _ in runs:
-            designs.append(designed_preset(preset, Path(tmp) / preset))
+    for preset, _ in runs:
+        designs.append(designed_preset(preset))
     for (preset, _), design in zip(runs, designs):
-        print(f"{preset}: {len(design.strings())} strings on {design.width / MM:.0f} x "
-              f"{design.height / MM:.0f} mm")
+        print(f"{preset}: {len(design_strings(design))} strings on {design.mattress.width / MM:.0f} x "
+              f"{design.mattress.height / MM:.0f} mm")
     print("\n| mattress (mm) | resolution (mm) | vertices | Newton: time (s) | Newton iterations | converged "
           "| residual | baseline: time (s) | baseline iterations | baseline residual | reached | speed-up "
           "| max distance of the two solutions (mm) |")

@@ -9,7 +9,7 @@ Public API (SI units: metres, 1/m):
 - :func:`sample_posterior` -- emcee posterior of Delta, d and the scatter sigma (``calib.posterior``).
 - :func:`kappa_curve` -- calibrated kappa_1(l/L) with 68/95% bands (``calib.curve``).
 - :func:`calibrate` -- manifest -> scans -> fits -> posterior -> curve (``calib.calibrate``).
-- :func:`write_report`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.report``, ``calib.plots``).
+- :func:`write_calibration`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.calibration_io``, ``calib.plots``).
 """
 
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
@@ -21,7 +21,7 @@ from calib.manifest import Manifest, read_manifest
 from calib.posterior import DEFAULT_PRIORS, Posterior, Priors, sample_posterior, specimen_data
 from calib.curve import KappaCurve, kappa_curve
 from calib.calibrate import Calibration, SpecimenFit, calibrate
-from calib.report import write_report
+from calib.calibration_io import write_calibration
 from calib.plots import plot_corner, plot_curve
 
 __all__ = [
@@ -29,5 +29,5 @@ __all__ = [
     "Scan", "read_scan", "CylinderFit", "fit_cylinder",
     "Manifest", "read_manifest", "DEFAULT_PRIORS", "Posterior", "Priors", "sample_posterior",
     "specimen_data", "KappaCurve", "kappa_curve", "Calibration", "SpecimenFit", "calibrate",
-    "write_report", "plot_corner", "plot_curve",
+    "write_calibration", "plot_corner", "plot_curve",
 ]

@@ -2,8 +2,8 @@
 
 Public API (SI units: metres, 1/m):
 
-- :func:`check_design` -- inflate at the median string lengths and at both tolerance ends
-  (``inflation_check``).
+- :func:`check` -- inflate a :class:`~design.pipeline.DesignResult` at the median string
+  lengths and at both tolerance ends (``inflation_check``).
 - :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ
   (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``deviation.png`` (``report``).
@@ -11,11 +11,11 @@ Public API (SI units: metres, 1/m):
 """
 
 from check.compare import Deviation, deviation, realized_curvature, surface_at
-from check.design_folder import DesignFolder, read_design_folder
-from check.inflation_check import CheckRun, DesignCheck, check_design
+from check.inflation_check import CheckRun, DesignCheck, check, design_strings
+from check.report import write_check
 
-__all__ = ["Deviation", "deviation", "realized_curvature", "surface_at", "DesignFolder", "read_design_folder",
-           "CheckRun", "DesignCheck", "check_design", "validate_equation3"]
+__all__ = ["Deviation", "deviation", "realized_curvature", "surface_at", "CheckRun", "DesignCheck", "check",
+           "design_strings", "write_check", "validate_equation3"]
 
 
 def __getattr__(name):  # validation imports calib's cylinder fit: load it only when asked for

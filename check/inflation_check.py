@@ -1,10 +1,11 @@
 """The inflation check of a design: inflate at the median string lengths and at both tolerance ends.
 
-``check_design`` reads nothing and writes nothing: give it a
-:class:`~check.design_folder.DesignFolder`; it builds the
-double-layer mesh, inflates it three times (strings at their median,
-lo95 and hi95 lengths, each simulated at l + 2Δ) and compares each result
-with Ŝ. SI units.
+:func:`check` reads nothing and writes nothing: give it the
+:class:`~design.pipeline.DesignResult` of :func:`design.pipeline.design` (or
+of :func:`design.design_io.read_design`); it builds the double-layer mesh,
+inflates it three times (strings at their median, lo95 and hi95 lengths,
+each simulated at l + 2Δ with Δ the calibration's posterior median) and
+compares each result with Ŝ. SI units.
 
 The three runs are independent, so ``workers > 1`` runs them in that many
 processes (:func:`~inflation.simulate.inflate_many`).
@@ -18,20 +19,58 @@ from dataclasses import dataclass
 import numpy as np
 
 from check.compare import Deviation, deviation, realized_curvature
-from check.design_folder import LENGTH_KEYS, DesignFolder
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
-from inflation.strings import check_resolution
+from inflation.strings import StringSet, check_resolution
 
-__all__ = ["CheckRun", "DesignCheck", "check_design"]
+__all__ = ["CheckRun", "DesignCheck", "check", "design_strings", "LENGTH_KEYS"]
 
 log = logging.getLogger(__name__)
+
+#: the string lengths a check can inflate with
+LENGTH_KEYS = ("median", "lo95", "hi95")
+
+
+def design_strings(design, which: str = "median") -> StringSet:
+    """A design's strings at one end of their tolerance, as the simulator takes them (SI).
+
+    Parameters
+    ----------
+    design : design.pipeline.DesignResult
+    which : {"median", "lo95", "hi95"}
+        Which length of each string.
+
+    Returns
+    -------
+    StringSet
+        Ends on Ω (m) and the simulated rest length l* = l + 2Δ (m), Δ the
+        posterior median of the design's calibration: the simulated ends do
+        not slip (Equation 3's l*).
+    """
+    strings = design.pattern.strings
+    k = len(strings)
+    a = np.array([s.dash.a for s in strings], float).reshape(k, 2)
+    b = np.array([s.dash.b for s in strings], float).reshape(k, 2)
+    top = np.array([s.side == "top" for s in strings], bool)
+    length = np.array([getattr(s, f"l_{which}") for s in strings], float)
+    return StringSet(a, b, top, length + 2.0 * design.calibration.delta_median,
+                     tuple(s.dash.id for s in strings))
 
 
 @dataclass(frozen=True)
 class CheckRun:
-    """One inflation of the design and how far it lands from Ŝ."""
+    """One inflation of the design and how far it lands from Ŝ.
+
+    Attributes
+    ----------
+    which : str
+        ``"median"``, ``"lo95"`` or ``"hi95"``: the string lengths used.
+    inflation : inflation.simulate.Inflation
+    deviation : check.compare.Deviation
+    kappa_realized : ndarray of shape (k,)
+        Signed curvature realized along each string's dash (1/m).
+    """
 
     which: str
     inflation: Inflation
@@ -41,24 +80,34 @@ class CheckRun:
 
 @dataclass(frozen=True)
 class DesignCheck:
-    """The median run and the tolerance envelope (``runs['median' | 'lo95' | 'hi95']``)."""
+    """The median run and the tolerance envelope (``runs['median' | 'lo95' | 'hi95']``).
 
-    design: DesignFolder
+    Attributes
+    ----------
+    design : design.pipeline.DesignResult
+    resolution : float
+        Edge length of the double-layer mesh (m).
+    runs : dict of str -> CheckRun
+    """
+
+    design: object
     resolution: float
     runs: dict
 
     @property
     def converged(self) -> bool:
+        """True when every run converged."""
         return all(r.inflation.converged for r in self.runs.values())
 
 
-def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Parameters = Parameters(),
-                 envelope: bool = True, strict: bool = False, workers: int = 1) -> DesignCheck:
+def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
+          strict: bool = False, workers: int = 1) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
     ----------
-    design : DesignFolder
+    design : design.pipeline.DesignResult
+        In memory or read from its folder.
     resolution : float
         Edge length of the double-layer mesh (m); must resolve the strings
         (at least 4 edges along each).
@@ -71,23 +120,30 @@ def check_design(design: DesignFolder, *, resolution: float = 0.025, params: Par
     workers : int
         Processes for the runs (1: one after the other, in this process).
 
+    Returns
+    -------
+    DesignCheck
+
     Raises
     ------
     airmat.errors.InputError
         A resolution too coarse for the strings or too fine for memory.
     """
-    mesh = build_mattress_mesh(design.width, design.height, design.thickness, resolution=resolution)
-    check_resolution(design.strings(), resolution)
+    m = design.mattress
+    mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=resolution)
     which_runs = LENGTH_KEYS if envelope else ("median",)
-    string_sets = [design.strings(which) for which in which_runs]
+    string_sets = [design_strings(design, which) for which in which_runs]
+    check_resolution(string_sets[0], resolution)
     inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
                               strict=strict, workers=workers)
+    a, b = string_sets[0].a, string_sets[0].b
+    polylines = [s.dash.polyline for s in design.pattern.strings]
     runs = {}
     for which, inf in zip(which_runs, inflations):
         if not inf.converged:
             log.warning("inflation with the %s string lengths did not converge: %s", which, inf.message)
-        dev = deviation(inf, design.approx_xyz, design.approx_uv)
-        kap = realized_curvature(inf, design.a, design.b, design.polylines)
+        dev = deviation(inf, design.approx.xyz, design.approx.uv)
+        kap = realized_curvature(inf, a, b, polylines)
         log.info("%s lengths: %d Newton iterations in %.1f s; deviation RMS %.1f mm, max %.1f mm",
                  which, inf.n_iter, inf.seconds, dev.rms * 1e3, dev.max * 1e3)
         runs[which] = CheckRun(which, inf, dev, kap)

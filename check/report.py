@@ -26,21 +26,20 @@ def _run_dict(run) -> dict:
 
 def check_dict(check) -> dict:
     """The inflate.json document of a :class:`~check.inflation_check.DesignCheck`."""
-    med = check.runs["median"]
-    doc = {"airmat_version": __version__, "design": str(check.design.path),
+    med, d = check.runs["median"], check.design
+    doc = {"airmat_version": __version__, "design": str(d.source if d.source is not None else d.name),
            "resolution_mm": round(check.resolution * M_TO_MM, 3),
            "mesh_vertices": int(med.inflation.mesh.n_vertices),
-           "delta_mm": round(check.design.delta * M_TO_MM, 3),
+           "delta_mm": round(d.calibration.delta_median * M_TO_MM, 3),
            "note": "strings simulated at l* = l + 2 delta (their ends do not slip in the simulation); "
                    "deviation of the aligned mid-surface from approx_surface, correspondence through the mattress",
            **_run_dict(med)}
     doc["envelope"] = {k: _run_dict(r)["deviation"] for k, r in check.runs.items() if k != "median"}
     doc["envelope_solver"] = {k: _run_dict(r)["solver"] for k, r in check.runs.items() if k != "median"}
-    d = check.design
-    doc["dashes"] = [{"id": i, "side": "top" if t else "bottom", "kappa_target_per_m": round(float(kt), 4),
+    doc["dashes"] = [{"id": s.dash.id, "side": s.side, "kappa_target_per_m": round(float(s.kappa), 4),
                       **{f"kappa_realized_{k}_per_m": round(float(r.kappa_realized[n]), 4)
                          for k, r in check.runs.items()}}
-                     for n, (i, t, kt) in enumerate(zip(d.ids, d.top, d.kappa))]
+                     for n, s in enumerate(d.pattern.strings)]
     for dash in doc["dashes"]:
         dash["kappa_realized_per_m"] = dash.pop("kappa_realized_median_per_m")
     return doc
@@ -53,11 +52,14 @@ def _plot(check, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     d, med = check.design, check.runs["median"]
+    uv, faces = d.approx.uv, d.approx.faces
+    kappa = np.array([s.kappa for s in d.pattern.strings])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [1.25, 1]})
-    tpc = ax.tripcolor(d.approx_uv[:, 0] * M_TO_MM, d.approx_uv[:, 1] * M_TO_MM, d.approx_faces,
+    tpc = ax.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces,
                        med.deviation.per_vertex * M_TO_MM, shading="gouraud", cmap="viridis")
     fig.colorbar(tpc, ax=ax, label="deviation from Ŝ (mm)")
-    for a, b, top in zip(d.a, d.b, d.top):
+    for s in d.pattern.strings:
+        a, b, top = s.dash.a, s.dash.b, s.side == "top"
         ax.plot([a[0] * M_TO_MM, b[0] * M_TO_MM], [a[1] * M_TO_MM, b[1] * M_TO_MM],
                 color="white" if top else "red", lw=1.5, ls="-" if top else ":")
     ax.set_aspect("equal")
@@ -68,7 +70,7 @@ def _plot(check, path: Path) -> None:
     ax2.axline((0, 0), slope=1, color="grey", lw=0.8)
     for key, mark in (("median", "o"), ("lo95", "v"), ("hi95", "^")):
         if key in check.runs:
-            ax2.plot(d.kappa, check.runs[key].kappa_realized, mark, ms=4, label=f"strings at {key}")
+            ax2.plot(kappa, check.runs[key].kappa_realized, mark, ms=4, label=f"strings at {key}")
     ax2.set_xlabel("target κ of the dash (1/m)")
     ax2.set_ylabel("realized κ (1/m)")
     ax2.legend(fontsize=8)

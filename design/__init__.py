@@ -34,12 +34,13 @@ __all__ = [
 # Pattern side: calibration source, stripes, string lengths, exports, the whole pipeline
 from design.calibration_source import CalibrationSource, default_calibration, load_calibration  # noqa: E402
 from design.pattern import Dash, Pattern, TensionString  # noqa: E402
-from design.pipeline import DesignParams, DesignResult, design, write_design  # noqa: E402
+from design.pipeline import DesignParams, DesignResult, design  # noqa: E402
+from design.design_io import read_design, write_design  # noqa: E402
 from design.string_lengths import string_pattern  # noqa: E402
 from design.stripes import StripeParams, Stripes, trace_stripes  # noqa: E402
 
 __all__ += [
     "CalibrationSource", "default_calibration", "load_calibration", "Dash", "Pattern", "TensionString",
     "StripeParams", "Stripes", "trace_stripes", "string_pattern",
-    "DesignParams", "DesignResult", "design", "write_design",
+    "DesignParams", "DesignResult", "design", "write_design", "read_design",
 ]

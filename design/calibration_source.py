@@ -16,18 +16,15 @@ output carries that label.
 
 from __future__ import annotations
 
-import json
 import logging
-from collections import Counter
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.units import M_TO_MM, MM
+from airmat.units import M_TO_MM
 
-__all__ = ["CalibrationSource", "load_calibration", "default_calibration", "PAPER"]
+__all__ = ["CalibrationSource", "from_calibration", "load_calibration", "default_calibration", "PAPER"]
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +56,16 @@ class CalibrationSource:
     source: str
     uncalibrated: bool
     label: str
+
+    @classmethod
+    def from_calibration(cls, cal, **kwargs) -> "CalibrationSource":
+        """See :func:`from_calibration`."""
+        return from_calibration(cal, **kwargs)
+
+    @property
+    def delta_median(self) -> float:
+        """Posterior median of Δ (m): the end slip the inflation adds to each string (l* = l + 2Δ)."""
+        return float(np.median(self.delta))
 
     @property
     def n_samples(self) -> int:
@@ -107,66 +114,23 @@ def default_calibration(*, seed=0, n_samples: int = 2000, d: float | None = None
     return CalibrationSource(L=PAPER["L"], delta=delta, d=dd, source="paper", uncalibrated=True, label=label)
 
 
-def _read_json(path: Path) -> dict:
-    if not path.is_file():
-        raise InputError("calibration.json not found (expected the output folder of 'airmat calibrate')",
-                         path=path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"not readable as JSON: {exc}", path=path) from exc
-    if not isinstance(doc, dict):
-        raise InputError("expected a JSON object at the top level", path=path)
-    params = doc.get("parameters")
-    for name in ("delta_mm", "d_mm"):
-        entry = params.get(name) if isinstance(params, dict) else None
-        if not isinstance(entry, dict) or "median" not in entry:
-            raise InputError(f"missing field 'parameters.{name}.median'", path=path, field=f"parameters.{name}")
-    return doc
+def _thin(x: np.ndarray, max_samples: int | None) -> np.ndarray:
+    """At most ``max_samples`` of ``x``, evenly spaced (deterministic, keeps the first and last)."""
+    if max_samples is None or x.size <= max_samples:
+        return x.copy()
+    return x[np.linspace(0, x.size - 1, max_samples).round().astype(int)]
 
 
-def _L_from_json(doc: dict, path: Path) -> float | None:
-    curve = doc.get("curve")
-    if isinstance(curve, dict) and curve.get("L_mm") is not None:
-        return float(curve["L_mm"]) * MM
-    specimens = doc.get("specimens")
-    if isinstance(specimens, list):
-        values = [s.get("L_mm") for s in specimens if isinstance(s, dict) and s.get("L_mm") is not None]
-        if values:
-            return float(Counter(float(v) for v in values).most_common(1)[0][0]) * MM
-    return None
-
-
-def _read_samples(path: Path) -> dict:
-    if not path.is_file():
-        raise InputError("posterior.npz not found (expected the output folder of 'airmat calibrate')",
-                         path=path)
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            arrays = {k: np.asarray(npz[k], dtype=float) for k in npz.files}
-    except (OSError, ValueError) as exc:
-        raise InputError(f"not readable as .npz: {exc}", path=path) from exc
-    for name in ("delta_m", "d_m"):
-        if name not in arrays:
-            raise InputError(f"missing array '{name}'", path=path, field=name)
-    delta, d = arrays["delta_m"].ravel(), arrays["d_m"].ravel()
-    if delta.size == 0 or delta.shape != d.shape:
-        raise InputError(f"arrays 'delta_m' {delta.shape} and 'd_m' {d.shape} must be non-empty and "
-                         f"of the same length", path=path)
-    bad = ~np.isfinite(delta) | ~np.isfinite(d) | (delta < 0) | (d <= 0)
-    if np.any(bad):
-        raise InputError(f"{int(bad.sum())} posterior samples are non-finite or non-physical "
-                         f"(need delta_m >= 0 and d_m > 0)", path=path)
-    return arrays
-
-
-def load_calibration(folder, *, max_samples: int | None = 2000) -> CalibrationSource:
-    """Read the output folder of ``airmat calibrate``.
+def from_calibration(cal, *, source: str | None = None, max_samples: int | None = 2000) -> CalibrationSource:
+    """The designer's view of a :class:`calib.calibrate.Calibration`, in memory.
 
     Parameters
     ----------
-    folder : path
-        Folder with ``calibration.json`` and ``posterior.npz``.
+    cal : calib.calibrate.Calibration
+        From :func:`calib.calibrate.calibrate` or :func:`calib.calibration_io.read_calibration`.
+    source : str, optional
+        Where the calibration's files are (its folder), for the label and the
+        design's files; default the manifest it was made from.
     max_samples : int or None
         Keep at most this many posterior samples, evenly thinned (deterministic),
         to bound the cost of propagating them through Equation 3; ``None``
@@ -176,36 +140,31 @@ def load_calibration(folder, *, max_samples: int | None = 2000) -> CalibrationSo
     Returns
     -------
     CalibrationSource
-        ``uncalibrated=False``; L (m) from ``posterior.npz`` ``L_m``, else
-        ``curve.L_mm``, else the most common specimen ``L_mm``.
+        ``uncalibrated=False``; L (m) is the calibration curve's string spacing.
+    """
+    samples = np.asarray(cal.posterior.samples, float)
+    delta, d = _thin(samples[:, 0], max_samples), _thin(samples[:, 1], max_samples)
+    L = float(cal.curve.L)
+    source = str(source if source is not None else cal.manifest.path)
+    if samples.shape[0] > delta.size:
+        log.debug("thinning %d posterior samples to %d", samples.shape[0], delta.size)
+    label = (f"calibrated ({source}): L = {L * M_TO_MM:.0f} mm, "
+             f"delta = {np.median(delta) * M_TO_MM:.1f} mm, d = {np.median(d) * M_TO_MM:.1f} mm "
+             f"(posterior medians, {delta.size} samples)")
+    return CalibrationSource(L=L, delta=delta, d=d, source=source, uncalibrated=False, label=label)
+
+
+def load_calibration(folder, *, max_samples: int | None = 2000) -> CalibrationSource:
+    """Read the output folder of ``airmat calibrate`` for the designer.
+
+    :func:`calib.calibration_io.read_calibration` then :func:`from_calibration`
+    with the folder as the source.
 
     Raises
     ------
     airmat.errors.InputError
         With ``path=`` the offending file, naming the missing field.
     """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError("calibration folder not found", path=folder)
-    doc = _read_json(folder / "calibration.json")
-    arrays = _read_samples(folder / "posterior.npz")
-    if "L_m" in arrays and arrays["L_m"].size:
-        L = float(np.median(arrays["L_m"]))
-        if not (np.isfinite(L) and L > 0):
-            raise InputError(f"array 'L_m' must be > 0 m, got {L!r}", path=folder / "posterior.npz", field="L_m")
-    else:
-        L = _L_from_json(doc, folder / "calibration.json")
-    if L is None or not (np.isfinite(L) and L > 0):
-        raise InputError("missing field 'curve.L_mm' (or specimens[].L_mm, or array L_m in posterior.npz): "
-                         "the string spacing L the calibration used", path=folder / "calibration.json",
-                         field="curve.L_mm")
-    delta, d = arrays["delta_m"].ravel(), arrays["d_m"].ravel()
-    if max_samples is not None and delta.size > max_samples:
-        keep = np.linspace(0, delta.size - 1, max_samples).round().astype(int)
-        log.debug("thinning %d posterior samples to %d", delta.size, max_samples)
-        delta, d = delta[keep], d[keep]
-    label = (f"calibrated ({folder}): L = {L * M_TO_MM:.0f} mm, "
-             f"delta = {np.median(delta) * M_TO_MM:.1f} mm, d = {np.median(d) * M_TO_MM:.1f} mm "
-             f"(posterior medians, {delta.size} samples)")
-    return CalibrationSource(L=L, delta=delta.copy(), d=d.copy(), source=str(folder), uncalibrated=False,
-                             label=label)
+    from calib.calibration_io import read_calibration
+
+    return from_calibration(read_calibration(folder), source=str(folder), max_samples=max_samples)

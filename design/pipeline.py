@@ -1,10 +1,11 @@
-"""The whole designer in one call: target S -> Ŝ -> field on Ω -> stripes -> string lengths -> files.
+"""The whole designer in one call: target S -> Ŝ -> field on Ω -> stripes -> string lengths.
 
 :func:`design` chains the surface side (design.surface: U_A relaxation to
 Ŝ, principal curvature, constructibility, transfer to Ω) and the pattern
-side (design.stripes, design.string_lengths), timing each stage;
-:func:`write_design` writes every workshop file of a result into a folder.
-SI units inside (m, 1/m); files in mm.
+side (design.stripes, design.string_lengths), timing each stage, and returns
+a :class:`DesignResult` that the check takes as it is
+(:func:`check.inflation_check.check`). Its files are written and read back
+by :mod:`design.design_io`. SI units (m, 1/m).
 """
 
 from __future__ import annotations
@@ -14,34 +15,25 @@ import inspect
 import logging
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from airmat.units import M_TO_MM
 from calib.model import kappa_max
 from design.calibration_source import CalibrationSource, default_calibration
-from design.export import (design_document, write_cutting_list, write_design_json, write_dxf, write_preview,
-                           write_svg)
+from design.field import MattressField
+from design.pattern import Pattern
 from design.string_lengths import string_pattern
-from design.stripes import StripeParams, check_stripe_params, trace_stripes
-from design.surface import approximate_surface, mattress_field
-from design.surface_io import write_approx_surface
+from design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
+from design.surface import ApproxSurface, approximate_surface, mattress_field
 
-__all__ = ["DesignParams", "DesignResult", "design", "write_design", "OUTPUT_FILES"]
+__all__ = ["DesignParams", "DesignResult", "design"]
 
 log = logging.getLogger(__name__)
-
-OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "pattern.svg", "pattern.dxf",
-                "cutting_list.csv", "preview.png")
 
 
 def _mm(x) -> float:
     return round(float(x) * M_TO_MM, 3)
-
-
-def _rounded(d: dict, digits: int) -> dict:
-    return {k: round(float(v), digits) for k, v in d.items()}
 
 
 @dataclass(frozen=True)
@@ -106,39 +98,47 @@ class DesignParams:
 
 @dataclass(frozen=True)
 class DesignResult:
-    """Everything a design produced.
+    """Everything a design produced (SI units), from :func:`design` or read back from its folder.
 
     Attributes
     ----------
+    name : str
+        The target's name.
     approx : design.surface.ApproxSurface
-        Ŝ with its relaxation result, curvature and constructibility report.
-    mfield : design.field.MattressField
-        The principal-curvature field on Ω.
-    stripes : design.stripes.Stripes
-        Lines and dashes of both families.
+        Ŝ with its Ω coordinates and constructibility report (and, in memory, the
+        relaxation result and the curvature).
     pattern : design.pattern.Pattern
         The strings with lengths and tolerances.
     calibration : CalibrationSource
+        The posterior samples the lengths were computed from.
     params : DesignParams
         With ``L`` resolved.
     seed : int
+    mfield : design.field.MattressField or None
+        The principal-curvature field on Ω (None when read from files).
+    stripes : design.stripes.Stripes or None
+        Lines and dashes of both families (None when read from files).
+    source : str or None
+        The folder the design was written to or read from, if any.
     timings : dict
         Seconds per stage (the surface side's stages, ``transfer``, ``stripes``, ``lengths``).
     """
 
-    approx: object = field(repr=False)
-    mfield: object = field(repr=False)
-    stripes: object = field(repr=False)
-    pattern: object
+    name: str
+    approx: ApproxSurface = field(repr=False)
+    pattern: Pattern
     calibration: CalibrationSource = field(repr=False)
     params: DesignParams
     seed: int
+    mfield: MattressField | None = field(default=None, repr=False)
+    stripes: Stripes | None = field(default=None, repr=False)
+    source: str | None = None
     timings: dict = field(default_factory=dict, compare=False)
 
     @property
-    def name(self) -> str:
-        """The target's name."""
-        return self.approx.target.name
+    def mattress(self):
+        """The mattress (design.mattress.Mattress)."""
+        return self.approx.mattress
 
 
 def design(target, mattress, *, calibration: CalibrationSource | None = None,
@@ -191,37 +191,5 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     pattern = string_pattern(mfield, stripes.dashes, calibration, L=L, n_points=params.n_kappa_points,
                              kappa_min=params.kappa_min, notes=stripes.notes)
     timings["lengths"] = time.perf_counter() - t
-    return DesignResult(approx=approx, mfield=mfield, stripes=stripes, pattern=pattern, calibration=calibration,
-                        params=params, seed=int(seed), timings=timings)
-
-
-def report_dict(report) -> dict:
-    """The constructibility report in file units (Table 1: σ, |κ1|, |κ2| in 1/m)."""
-    return {"sigma": _rounded(report.sigma, 5), "kappa1_per_m": _rounded(report.kappa1, 4),
-            "kappa2_per_m": _rounded(report.kappa2, 4), "constructible": bool(report.constructible),
-            "reasons": [str(r) for r in report.reasons],
-            "sigma_band": [float(b) for b in report.sigma_band],
-            "kappa_max_per_m": round(float(report.kappa_max), 4)}
-
-
-def write_design(result: DesignResult, folder) -> dict:
-    """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
-
-    Returns
-    -------
-    dict
-        The design document (content of design.json). ``result.timings["export"]`` is not
-        updated (the result is frozen); the caller times this call.
-    """
-    folder = Path(folder)
-    a, m = result.approx, result.approx.mattress
-    doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
-                          report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
-                          seed=result.seed, name=result.name)
-    write_design_json(folder / "design.json", doc)
-    write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
-    write_svg(folder / "pattern.svg", doc)
-    write_dxf(folder / "pattern.dxf", doc)
-    write_cutting_list(folder / "cutting_list.csv", doc)
-    write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
-    return doc
+    return DesignResult(name=target.name, approx=approx, pattern=pattern, calibration=calibration, params=params,
+                        seed=int(seed), mfield=mfield, stripes=stripes, timings=timings)

@@ -33,9 +33,13 @@ log = logging.getLogger(__name__)
 class ApproxSurface:
     """Ŝ: the near-developable surface the mattress can make, with its curvature and report.
 
+    A Ŝ read back from a design folder (:func:`design.design_io.read_design`)
+    has ``target``, ``relax`` and ``curvature`` None: the files keep Ŝ, its Ω
+    coordinates and the report, not the relaxation's history.
+
     Attributes
     ----------
-    target : design.target.Target
+    target : design.target.Target or None
     mattress : design.mattress.Mattress
     xyz : ndarray of shape (n, 3)
         Vertices of Ŝ (m).
@@ -43,24 +47,24 @@ class ApproxSurface:
         The same vertices on Ω (m).
     faces : ndarray of shape (m, 3)
         Shared triangles, counter-clockwise on Ω.
-    relax : design.relax.RelaxResult
+    relax : design.relax.RelaxResult or None
         The U_A relaxation (converged, n_iter, residual, message, energy, placement).
-    curvature : design.curvature.PrincipalCurvature
+    curvature : design.curvature.PrincipalCurvature or None
         Per-vertex principal curvatures of Ŝ, signed against the top normal.
-    report : design.constructibility.ConstructibilityReport
-        Table-1 figures and verdict.
+    report : design.constructibility.ConstructibilityReport or None
+        Table-1 figures and verdict (None for a design folder written by another tool).
     timings : dict
         Seconds per stage: ``triangulate``, ``relax``, ``curvature``, ``report``.
     """
 
-    target: Target
+    target: Target | None
     mattress: Mattress
     xyz: np.ndarray
     uv: np.ndarray
     faces: np.ndarray
-    relax: RelaxResult
-    curvature: PrincipalCurvature
-    report: ConstructibilityReport
+    relax: RelaxResult | None
+    curvature: PrincipalCurvature | None
+    report: ConstructibilityReport | None
     timings: dict = field(default_factory=dict, compare=False)
 
 

@@ -44,13 +44,13 @@ def run(args) -> int:
     from airmat.atomic import staged_dir
     from calib.calibrate import calibrate
     from calib.plots import plot_corner, plot_curve
-    from calib.report import summary_text, write_report
+    from calib.calibration_io import summary_text, write_calibration
 
     truth = _read_truth(args.truth)
     cal = calibrate(args.manifest, scan_units=args.scan_units, n_walkers=args.walkers,
                     max_steps=args.max_steps, seed=args.seed)
     with staged_dir(args.out) as tmp:
-        write_report(cal, tmp, truth=truth)
+        write_calibration(cal, tmp, truth=truth)
         plot_curve(cal, tmp / "curve.png", truth=truth)
         plot_corner(cal.posterior, tmp / "corner.png", truths=truth)
     print(summary_text(cal, args.out))

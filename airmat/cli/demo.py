@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import contextlib
-import io
-import json
+import dataclasses
 import logging
 import time
 from pathlib import Path
+
+from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -21,85 +22,110 @@ def add_parser(sub, parents):
     p.add_argument("--preset", default="vault1",
                    help="target preset to design and inflate (default vault1)")
     p.add_argument("--points", type=int, default=100_000, help="points per synthetic scan (default 100000)")
-    p.add_argument("--resolution-mm", default="20",
+    p.add_argument("--resolution-mm", type=float, default=20.0,
                    help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
+    add_jobs_argument(p)
     p.set_defaults(func=run)
 
 
-def run_steps(steps, seed: int, quiet_children: bool = True) -> dict:
-    """Run ``[(name, argv), ...]`` through the airmat parser in order; return seconds per step.
-
-    Each step's own summary goes to the log at debug level; a failing step
-    raises its error unchanged (the dispatcher reports it in one line).
-    """
-    from airmat.cli import build_parser
-
-    parser = build_parser()
-    seconds = {}
-    for name, argv in steps:
-        args = parser.parse_args(argv + ["--seed", str(seed)])
-        t0 = time.perf_counter()
-        log.info("%s: airmat %s", name, " ".join(argv))
-        buf = io.StringIO()
-        with contextlib.redirect_stdout(buf) if quiet_children else contextlib.nullcontext():
-            args.func(args)
-        log.debug("%s", buf.getvalue())
-        seconds[name] = time.perf_counter() - t0
-    return seconds
+def _iv(p, unit: str, scale: float = 1.0, digits: int = 1) -> str:
+    return (f"{p.median * scale:.{digits}f} {unit} [{p.lo95 * scale:.{digits}f}, "
+            f"{p.hi95 * scale:.{digits}f}]")
 
 
-def _iv(p: dict, unit: str, digits: int = 1) -> str:
-    return f"{p['median']:.{digits}f} {unit} [{p['lo95']:.{digits}f}, {p['hi95']:.{digits}f}]"
-
-
-def summary(out: Path, seconds: dict) -> str:
-    """A short human summary of a demo folder."""
-    cal = json.loads((out / "calibration" / "calibration.json").read_text())
-    truth = json.loads((out / "synth" / "truth.json").read_text())
-    des = json.loads((out / "design" / "design.json").read_text())
-    inf = json.loads((out / "inflate" / "inflate.json").read_text())
-    par, diag, rep = cal["parameters"], cal["diagnostics"], des["report"]
-    dashes = des["dashes"]
+def summary(out: Path, cal, truth: dict, design, check, seconds: dict) -> str:
+    """A short human summary of a demo, from the objects the run holds (SI inside, mm printed)."""
+    post, rep = cal.posterior, design.approx.report
     count = {}
-    for dash in dashes:
-        key = f"{dash['side']} {dash['family']}"
+    for s in design.pattern.strings:
+        key = f"{s.side} {s.dash.family}"
         count[key] = count.get(key, 0) + 1
-    dev, env = inf["deviation"], inf["envelope"]
-    solver = inf["solver"]
-    solver = solver.get("median", solver) if isinstance(solver, dict) else solver
+    runs = check.runs
+    dev = runs["median"].deviation
+    env = "; envelope " + ", ".join(f"{k} RMS {runs[k].deviation.rms * 1e3:.1f} mm"
+                                    for k in ("lo95", "hi95") if k in runs)
+    m = design.mattress
     lines = [
         "airmat demo: synthetic scans -> calibration -> design -> inflation check",
-        f"  calibration  Delta = {_iv(par['delta_mm'], 'mm')} (truth {truth['delta_mm']:g} mm), "
-        f"d = {_iv(par['d_mm'], 'mm')} (truth {truth['d_mm']:g} mm), "
-        f"sigma = {_iv(par['sigma_per_m'], '1/m', 2)}; "
-        f"{'converged' if diag['converged'] else 'NOT CONVERGED'} ({diag['n_steps']} steps)",
-        f"  design       {des['name']} "
-        f"on {des['mattress']['width_mm']:.0f} x {des['mattress']['height_mm']:.0f} mm: "
-        f"sigma {rep['sigma']['min']:.4f}/{rep['sigma']['avg']:.4f}/{rep['sigma']['max']:.4f} (min/avg/max), "
-        f"|k1| {rep['kappa1_per_m']['avg']:.2f}/{rep['kappa1_per_m']['max']:.2f}, "
-        f"|k2| {rep['kappa2_per_m']['avg']:.2f}/{rep['kappa2_per_m']['max']:.2f} 1/m (avg/max); "
-        f"constructible: {'yes' if rep['constructible'] else 'no'}",
-        f"               {len(dashes)} strings: " + ", ".join(f"{v} {k}" for k, v in sorted(count.items())),
-        f"  inflation    deviation from S-hat: RMS {dev['rms_mm']:.1f} mm ({dev['rms_pct_diag']:.2f}% of the "
-        f"diagonal), max {dev['max_mm']:.1f} mm; envelope lo95 RMS {env['lo95']['rms_mm']:.1f} mm, "
-        f"hi95 RMS {env['hi95']['rms_mm']:.1f} mm",
+        f"  calibration  Delta = {_iv(post.delta, 'mm', 1e3)} (truth {truth['delta_mm']:g} mm), "
+        f"d = {_iv(post.d, 'mm', 1e3)} (truth {truth['d_mm']:g} mm), "
+        f"sigma = {_iv(post.sigma, '1/m', digits=2)}; "
+        f"{'converged' if post.converged else 'NOT CONVERGED'} ({post.n_steps} steps)",
+        f"  design       {design.name} on {m.width * 1e3:.0f} x {m.height * 1e3:.0f} mm: "
+        f"sigma {rep.sigma['min']:.4f}/{rep.sigma['avg']:.4f}/{rep.sigma['max']:.4f} (min/avg/max), "
+        f"|k1| {rep.kappa1['avg']:.2f}/{rep.kappa1['max']:.2f}, "
+        f"|k2| {rep.kappa2['avg']:.2f}/{rep.kappa2['max']:.2f} 1/m (avg/max); "
+        f"constructible: {'yes' if rep.constructible else 'no'}",
+        f"               {len(design.pattern.strings)} strings: "
+        + ", ".join(f"{v} {k}" for k, v in sorted(count.items())),
+        f"  inflation    deviation from S-hat: RMS {dev.rms * 1e3:.1f} mm ({dev.rms_pct_diag:.2f}% of the "
+        f"diagonal), max {dev.max * 1e3:.1f} mm" + (env if len(runs) > 1 else ""),
         "  time         " + ", ".join(f"{k} {v:.1f} s" for k, v in seconds.items()),
         f"  files        {out}/synth, {out}/calibration, {out}/design, {out}/inflate",
     ]
     return "\n".join(lines)
 
 
+def _published(cal, staged: Path, out: Path):
+    """The calibration with its manifest and scan paths where the run publishes them (``out``)."""
+    def move(p: str) -> str:
+        return str(out / Path(p).relative_to(staged)) if Path(p).is_relative_to(staged) else p
+
+    man = dataclasses.replace(cal.manifest, path=move(cal.manifest.path),
+                              scan_paths=tuple(move(p) for p in cal.manifest.scan_paths))
+    specimens = tuple(dataclasses.replace(s, path=move(s.path)) for s in cal.specimens)
+    return dataclasses.replace(cal, manifest=man, specimens=specimens)
+
+
 def run(args) -> int:
+    from airmat.atomic import staged_dir
+    from airmat.units import MM
+    from calib.calibrate import calibrate
+    from calib.calibration_io import write_calibration
+    from calib.plots import plot_corner, plot_curve
+    from check.inflation_check import check
+    from check.report import write_check
+    from data_synthetic.calibration_set import calibration_set
+    from design.calibration_source import from_calibration
+    from design.design_io import write_design
+    from design.pipeline import design
+    from design.presets import preset
+
+    # every option is checked before the first step runs
+    if not (args.resolution_mm > 0):
+        raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
+    if args.points < 1000:
+        raise InputError(f"--points must be at least 1000, got {args.points}")
+    workers = jobs(args)
+    target, mattress = preset(args.preset)
     out = Path(args.out)
-    steps = [
-        ("synth", ["synth", str(out / "synth"), "--points", str(args.points)]),
-        ("calibrate", ["calibrate", str(out / "synth" / "manifest.csv"), "--out", str(out / "calibration"),
-                       "--truth", str(out / "synth" / "truth.json")]),
-        ("design", ["design", "--preset", args.preset, "--calibration", str(out / "calibration"),
-                    "--out", str(out / "design")]),
-        ("inflate", ["inflate", str(out / "design"), "--out", str(out / "inflate"),
-                     "--resolution-mm", str(args.resolution_mm)]),
-    ]
-    seconds = run_steps(steps, args.seed)
-    print(summary(out, seconds))
+    seconds = {}
+    with staged_dir(out) as tmp:
+        t = time.perf_counter()
+        log.info("synth: %d points per scan", args.points)
+        cs = calibration_set(tmp / "synth", n_points=args.points, seed=args.seed)
+        seconds["synth"] = time.perf_counter() - t
+
+        t = time.perf_counter()
+        log.info("calibrate: %d scans", len(cs.scans))
+        cal = _published(calibrate(cs.manifest, seed=args.seed), tmp, out)
+        write_calibration(cal, tmp / "calibration", truth=cs.truth)
+        plot_curve(cal, tmp / "calibration" / "curve.png", truth=cs.truth)
+        plot_corner(cal.posterior, tmp / "calibration" / "corner.png", truths=cs.truth)
+        seconds["calibrate"] = time.perf_counter() - t
+
+        t = time.perf_counter()
+        log.info("design: preset %s", args.preset)
+        source = from_calibration(cal, source=str(out / "calibration"))
+        result = design(target, mattress, calibration=source, seed=args.seed, progress=False)
+        result = dataclasses.replace(result, source=str(out / "design"))
+        write_design(result, tmp / "design")
+        seconds["design"] = time.perf_counter() - t
+
+        t = time.perf_counter()
+        log.info("inflate: %g mm", args.resolution_mm)
+        checked = check(result, resolution=args.resolution_mm * MM, workers=workers)
+        write_check(checked, tmp / "inflate")
+        seconds["inflate"] = time.perf_counter() - t
+    print(summary(out, cal, cs.truth, result, checked, seconds))
     return 0

@@ -125,7 +125,8 @@ def run(args) -> int:
     from airmat.atomic import staged_dir
     from airmat.progress import progress_enabled
     from design.calibration_source import PAPER, load_calibration
-    from design.pipeline import design, write_design
+    from design.design_io import write_design
+    from design.pipeline import design
     from design.stripes import check_stripe_params
 
     logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines are about DXF internals

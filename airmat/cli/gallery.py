@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
+
+from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.errors import InputError
 
 # design.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
 PRESETS = ("vault1", "saddle", "dome", "vault2", "roof")
@@ -18,52 +22,70 @@ def add_parser(sub, parents):
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--out", default="out/gallery", metavar="DIR", help="output folder (default out/gallery)")
     p.add_argument("--presets", default=",".join(PRESETS), help="comma-separated presets (default: all five)")
-    p.add_argument("--resolution-mm", default="20",
+    p.add_argument("--resolution-mm", type=float, default=20.0,
                    help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="calibration folder (default: the paper's values, UNCALIBRATED)")
+    add_jobs_argument(p)
     p.set_defaults(func=run)
 
 
-def table_row(name: str, design: dict, inflate: dict, seconds: float) -> str:
-    """One Markdown row from a design.json and an inflate.json."""
-    rep, dev, env = design["report"], inflate["deviation"], inflate["envelope"]
-    s, k1, k2 = rep["sigma"], rep["kappa1_per_m"], rep["kappa2_per_m"]
-    size = "small" if design["mattress"]["width_mm"] < 1500 else "large"
-    return (f"| {size} | {name} | {s['min']:.4f} // {s['avg']:.4f} // {s['max']:.4f} "
+def table_row(design, check, seconds: float) -> str:
+    """One Markdown row from a DesignResult and its DesignCheck (mm and 1/m printed)."""
+    rep, runs = design.approx.report, check.runs
+    dev = runs["median"].deviation
+    s, k1, k2 = rep.sigma, rep.kappa1, rep.kappa2
+    size = "small" if design.mattress.width < 1.5 else "large"
+    env = " // ".join(f"{runs[k].deviation.rms * 1e3:.1f}" if k in runs else "-" for k in ("lo95", "hi95"))
+    return (f"| {size} | {design.name} | {s['min']:.4f} // {s['avg']:.4f} // {s['max']:.4f} "
             f"| {k1['avg']:.2f} // {k1['max']:.2f} | {k2['avg']:.2f} // {k2['max']:.2f} "
-            f"| {len(design['dashes'])} | {'yes' if rep['constructible'] else 'no'} "
-            f"| {dev['rms_mm']:.1f} // {dev['max_mm']:.1f} | {dev['rms_pct_diag']:.2f} "
-            f"| {env['lo95']['rms_mm']:.1f} // {env['hi95']['rms_mm']:.1f} | {seconds:.0f} |")
+            f"| {len(design.pattern.strings)} | {'yes' if rep.constructible else 'no'} "
+            f"| {dev.rms * 1e3:.1f} // {dev.max * 1e3:.1f} | {dev.rms_pct_diag:.2f} "
+            f"| {env} | {seconds:.0f} |")
 
 
 def run(args) -> int:
-    from airmat.atomic import atomic_write_text
-    from airmat.cli.demo import run_steps
-    from airmat.errors import InputError
+    import dataclasses
+
+    from airmat.atomic import atomic_write_text, staged_dir
+    from airmat.units import MM
+    from check.inflation_check import check
+    from check.report import check_dict, write_check
+    from design.calibration_source import load_calibration
+    from design.design_io import report_dict, write_design
+    from design.pipeline import design
+    from design.presets import preset
 
     names = [n.strip() for n in args.presets.split(",") if n.strip()]
     unknown = sorted(set(names) - set(PRESETS))
-    if unknown:
-        raise InputError(f"--presets: unknown preset(s) {', '.join(unknown)}; choose from {', '.join(PRESETS)}")
+    if unknown or not names:
+        raise InputError(f"--presets: unknown preset(s) {', '.join(unknown) or '(none given)'}; "
+                         f"choose from {', '.join(PRESETS)}")
+    if not (args.resolution_mm > 0):
+        raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
+    workers = jobs(args)
+    calibration = load_calibration(args.calibration) if args.calibration else None
     out = Path(args.out)
     rows, results = [], {}
-    for name in names:
-        cal = ["--calibration", args.calibration] if args.calibration else []
-        seconds = run_steps([
-            ("design", ["design", "--preset", name, "--out", str(out / name / "design")] + cal),
-            ("inflate", ["inflate", str(out / name / "design"), "--out", str(out / name / "inflate"),
-                         "--resolution-mm", str(args.resolution_mm)]),
-        ], args.seed)
-        design = json.loads((out / name / "design" / "design.json").read_text())
-        inflate = json.loads((out / name / "inflate" / "inflate.json").read_text())
-        rows.append(table_row(name, design, inflate, sum(seconds.values())))
-        results[name] = {"report": design["report"], "deviation": inflate["deviation"],
-                         "envelope": inflate["envelope"], "seconds": seconds}
-        print(rows[-1], flush=True)
-    sep = "|" + "---|" * (HEADER.count("|") - 1)
-    table = "\n".join([HEADER, sep] + rows)
-    atomic_write_text(out / "gallery.md", table + "\n")
-    atomic_write_text(out / "gallery.json", json.dumps(results, indent=2) + "\n")
+    with staged_dir(out) as tmp:
+        for name in names:
+            target, mattress = preset(name)
+            t = time.perf_counter()
+            result = design(target, mattress, calibration=calibration, seed=args.seed, progress=False)
+            result = dataclasses.replace(result, source=str(out / name / "design"))
+            write_design(result, tmp / name / "design")
+            t_design = time.perf_counter() - t
+            checked = check(result, resolution=args.resolution_mm * MM, workers=workers)
+            write_check(checked, tmp / name / "inflate")
+            seconds = {"design": t_design, "inflate": time.perf_counter() - t - t_design}
+            rows.append(table_row(result, checked, sum(seconds.values())))
+            doc = check_dict(checked)
+            results[name] = {"report": report_dict(result.approx.report), "deviation": doc["deviation"],
+                             "envelope": doc["envelope"], "seconds": seconds}
+            print(rows[-1], flush=True)
+        sep = "|" + "---|" * (HEADER.count("|") - 1)
+        table = "\n".join([HEADER, sep] + rows)
+        atomic_write_text(tmp / "gallery.md", table + "\n")
+        atomic_write_text(tmp / "gallery.json", json.dumps(results, indent=2) + "\n")
     print(f"\n{table}\n\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
     return 0

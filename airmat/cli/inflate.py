@@ -27,8 +27,8 @@ def run(args) -> int:
 
     from airmat.atomic import staged_dir
     from airmat.units import MM
-    from check.inflation_check import check_design
-    from check.design_folder import read_design_folder
+    from check.inflation_check import check
+    from design.design_io import read_design
     from inflation.model import Parameters
     from check.report import summary_text, write_check
 
@@ -40,10 +40,10 @@ def run(args) -> int:
             raise InputError(f"--pressure-pa must be > 0, got {args.pressure_pa!r}")
         params = replace(params, pressure=args.pressure_pa)
     workers = jobs(args)
-    design = read_design_folder(args.design)
-    check = check_design(design, resolution=args.resolution_mm * MM, params=params,
-                         envelope=not args.no_envelope, workers=workers)
+    design = read_design(args.design)
+    result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
+                   workers=workers)
     with staged_dir(args.out) as tmp:
-        doc = write_check(check, tmp)
+        doc = write_check(result, tmp)
     print(summary_text(doc, args.out))
     return 0

@@ -13,7 +13,7 @@ from calib.manifest import Manifest
 from calib.model import kappa1
 from calib.plots import plot_corner, plot_curve
 from calib.posterior import sample_posterior, specimen_data
-from calib.report import calibration_dict, summary_text, write_report
+from calib.calibration_io import calibration_dict, summary_text, write_calibration
 from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
 DELTA, D, L = 0.018, 0.070, 0.300
@@ -108,7 +108,7 @@ def hand_made_calibration(max_steps=300):
 def test_report_files_and_fields(tmp_path, hand_made):
     cal = hand_made
     truth = {"delta_mm": 18.0, "d_mm": 70.0, "sigma_per_m": 0.1}
-    files = write_report(cal, tmp_path, truth=truth)
+    files = write_calibration(cal, tmp_path, truth=truth)
     assert [f.name for f in files] == ["calibration.json", "posterior.npz", "specimens.csv"]
     doc = json.loads((tmp_path / "calibration.json").read_text())
     for name, scale, p in (("delta_mm", 1e3, cal.posterior.delta), ("d_mm", 1e3, cal.posterior.d),

@@ -7,10 +7,10 @@ import pytest
 import trimesh
 
 from airmat.cli import main
+from design.design_io import OUTPUT_FILES
 from data_synthetic.targets import cylinder
 
-FILES = {"design.json", "approx_surface.ply", "approx_surface.obj", "pattern.svg", "pattern.dxf",
-         "cutting_list.csv", "preview.png"}
+FILES = set(OUTPUT_FILES)
 FAST = ["--spacing-mm", "40"]
 
 

@@ -9,7 +9,8 @@ from calib.model import kappa1, string_length
 from data_synthetic.targets import cone, cylinder
 from design.calibration_source import CalibrationSource
 from design.mattress import Mattress
-from design.pipeline import OUTPUT_FILES, DesignParams, design, write_design
+from design.design_io import OUTPUT_FILES, write_design
+from design.pipeline import DesignParams, design
 
 MATTRESS = Mattress(0.83, 0.74)
 #: a point calibration (the paper's values), so that l inverts Equation 3 exactly

@@ -1,0 +1,260 @@
+"""A design's folder, written and read back: the workshop files and the files the check reads.
+
+:func:`write_design` writes every file of a :class:`~design.pipeline.DesignResult`
+into a folder (``design.json``, ``approx_surface.ply`` / ``.obj``,
+``calibration_samples.npz``, ``pattern.svg``, ``pattern.dxf``,
+``cutting_list.csv``, ``preview.png``); :func:`read_design` builds the same
+``DesignResult`` from such a folder, so that the check takes a design from
+memory or from files alike. Files are in millimetres (lengths rounded to
+0.01 mm in ``design.json``); the library side is SI.
+
+``calibration_samples.npz`` keeps the posterior samples (``delta_m``, ``d_m``,
+``L_m``) the string lengths were computed from, bit for bit; a folder written
+before it existed is read with the posterior medians of ``design.json`` as a
+single sample.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from airmat.atomic import atomic_write_bytes
+from airmat.errors import InputError
+from airmat.npz_bytes import npz_bytes
+from airmat.units import MM
+from design.calibration_source import CalibrationSource
+from design.constructibility import ConstructibilityReport
+from design.export.design_json import design_document, read_design_json, write_design_json
+from design.mattress import Mattress
+from design.pattern import Dash, Pattern, TensionString
+from design.pipeline import DesignParams, DesignResult
+from design.surface import ApproxSurface
+from design.surface_io import read_approx_surface, write_approx_surface
+
+__all__ = ["write_design", "read_design", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
+
+OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "calibration_samples.npz",
+                "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png")
+#: the three string lengths of every dash in design.json ``l_mm``
+LENGTH_KEYS = ("median", "lo95", "hi95")
+
+_ID = re.compile(r"^k[12]-(\d+)-(\d+)$")
+
+
+def _rounded(d: dict, digits: int) -> dict:
+    return {k: round(float(v), digits) for k, v in d.items()}
+
+
+def report_dict(report) -> dict:
+    """The constructibility report in file units (Table 1: σ, |κ1|, |κ2| in 1/m)."""
+    return {"sigma": _rounded(report.sigma, 5), "kappa1_per_m": _rounded(report.kappa1, 4),
+            "kappa2_per_m": _rounded(report.kappa2, 4), "constructible": bool(report.constructible),
+            "reasons": [str(r) for r in report.reasons],
+            "sigma_band": [float(b) for b in report.sigma_band],
+            "kappa_max_per_m": round(float(report.kappa_max), 4)}
+
+
+def _write_samples(path: Path, calibration: CalibrationSource) -> None:
+    atomic_write_bytes(path, npz_bytes(delta_m=calibration.delta, d_m=calibration.d, L_m=np.float64(calibration.L)))
+
+
+def write_design(result: DesignResult, folder) -> dict:
+    """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
+
+    Returns
+    -------
+    dict
+        The design document (content of design.json).
+    """
+    from design.export import write_cutting_list, write_dxf, write_preview, write_svg
+
+    folder = Path(folder)
+    a, m = result.approx, result.approx.mattress
+    doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
+                          report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
+                          seed=result.seed, name=result.name)
+    write_design_json(folder / "design.json", doc)
+    write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
+    _write_samples(folder / "calibration_samples.npz", result.calibration)
+    write_svg(folder / "pattern.svg", doc)
+    write_dxf(folder / "pattern.dxf", doc)
+    write_cutting_list(folder / "cutting_list.csv", doc)
+    write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
+    return doc
+
+
+# --- reading ------------------------------------------------------------------------------------------
+
+def _get(doc, keys: str, path: Path):
+    node = doc
+    for key in keys.split("."):
+        if not isinstance(node, dict) or key not in node:
+            raise InputError(f"no field '{keys}': is this a folder written by 'airmat design'?", path=path,
+                             field=keys)
+        node = node[key]
+    return node
+
+
+def _number(value, what: str, path: Path) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} is not a number: {value!r}", path=path) from None
+    if not math.isfinite(x):
+        raise InputError(f"{what} is not finite: {value!r}", path=path)
+    return x
+
+
+def _points(value, what: str, path: Path) -> np.ndarray:
+    try:
+        pts = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a list of [u, v] numbers", path=path) from None
+    pts = pts.reshape(-1, 2) if pts.ndim == 1 and pts.size == 2 else pts
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0:
+        raise InputError(f"{what} must be a non-empty list of [u, v] points", path=path)
+    if not np.all(np.isfinite(pts)):
+        raise InputError(f"{what} has a non-finite coordinate", path=path)
+    return pts * MM
+
+
+def _string(dash, k: int, path: Path, width: float, height: float) -> TensionString:
+    """One dash entry of design.json as a TensionString (SI), checked."""
+    did = str(dash.get("id", f"#{k}")) if isinstance(dash, dict) else f"#{k}"
+    try:
+        a = _points(dash["a_mm"], f"dash {did} a_mm", path)
+        b = _points(dash["b_mm"], f"dash {did} b_mm", path)
+        side, family = dash["side"], dash.get("family", "k1")
+        l = [_number(dash["l_mm"][key], f"dash {did} l_mm.{key}", path) * MM for key in LENGTH_KEYS]
+        kappa = _number(dash["kappa_per_m"], f"dash {did} kappa_per_m", path)
+        poly = _points(dash.get("polyline_mm", [dash["a_mm"], dash["b_mm"]]), f"dash {did} polyline_mm", path)
+    except (KeyError, TypeError) as err:
+        raise InputError(f"dash {did} lacks field {err}", path=path) from None
+    if a.shape != (1, 2) or b.shape != (1, 2) or side not in ("top", "bottom") or family not in ("k1", "k2"):
+        raise InputError(f"dash {did}: a_mm/b_mm must be [u, v], side top or bottom, family k1 or k2",
+                         path=path)
+    ends = np.concatenate([a, b])
+    if np.any(ends < -1e-9) or np.any(ends[:, 0] > width + 1e-9) or np.any(ends[:, 1] > height + 1e-9):
+        raise InputError(f"string {did} has an end outside the {width / MM:.0f} x {height / MM:.0f} mm "
+                         f"mattress: a = {a[0] / MM} mm, b = {b[0] / MM} mm", path=path)
+    if not (0.0 <= l[1] <= l[0] <= l[2]):
+        raise InputError(f"dash {did}: l_mm must satisfy 0 <= lo95 <= median <= hi95", path=path)
+    # the dash's ends are the string's: the polyline runs from a to b
+    poly = np.concatenate([a, poly[1:-1], b]) if len(poly) >= 2 else ends
+    length = dash.get("L_mm")
+    length = _number(length, f"dash {did} L_mm", path) * MM if length is not None else \
+        float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
+    m = _ID.match(did)
+    line, index = (int(m.group(1)), int(m.group(2))) if m else (0, k + 1)
+    return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length),
+                         kappa=kappa, side=side, l_median=l[0], l_lo95=l[1], l_hi95=l[2],
+                         flags=tuple(str(f) for f in dash.get("flags", ())))
+
+
+def _calibration(folder: Path, doc: dict, path: Path, L: float, thickness: float) -> CalibrationSource:
+    cal = _get(doc, "calibration", path)
+    samples = folder / "calibration_samples.npz"
+    if samples.is_file():
+        try:
+            with np.load(samples, allow_pickle=False) as npz:
+                delta, d = np.asarray(npz["delta_m"], float).ravel(), np.asarray(npz["d_m"], float).ravel()
+        except (OSError, ValueError, KeyError, EOFError) as exc:
+            raise InputError(f"not readable as the design's calibration samples: {exc}", path=samples) from None
+        if delta.size == 0 or delta.shape != d.shape or not (np.all(np.isfinite(delta)) and np.all(d > 0)):
+            raise InputError("calibration samples must be finite, non-empty, of one length, with d > 0",
+                             path=samples)
+    else:   # a folder from another tool: the medians as one sample (d defaults to the thickness)
+        delta = np.array([_number(_get(doc, "calibration.delta_mm.median", path), "calibration.delta_mm.median",
+                                  path) * MM])
+        d_mm = cal.get("d_mm", {}).get("median") if isinstance(cal.get("d_mm"), dict) else None
+        d = np.array([_number(d_mm, "calibration.d_mm.median", path) * MM if d_mm is not None else thickness])
+    if delta.min() < 0:
+        raise InputError("calibration delta must be >= 0", path=path)
+    return CalibrationSource(L=L, delta=delta, d=d, source=str(cal.get("source", "")),
+                             uncalibrated=bool(cal.get("uncalibrated", False)), label=str(cal.get("label", "")))
+
+
+def _params(doc: dict, path: Path) -> DesignParams:
+    p = doc.get("parameters", {})
+    if not isinstance(p, dict):
+        raise InputError("field 'parameters' must be an object", path=path)
+    fields = {"L": "L_mm", "mu1": "mu1_mm", "mu2": "mu2_mm", "margin": "margin_mm", "step": "step_mm",
+              "spacing": "spacing_mm"}
+    kw = {k: _number(p[v], f"parameters.{v}", path) * MM for k, v in fields.items() if v in p}
+    kw.update({k: _number(p[k], f"parameters.{k}", path) for k in ("k_a1", "k_a2", "k_a3", "weight_min")
+               if k in p})
+    if "kappa_min_per_m" in p:
+        kw["kappa_min"] = _number(p["kappa_min_per_m"], "parameters.kappa_min_per_m", path)
+    if "n_kappa_points" in p:
+        kw["n_kappa_points"] = int(_number(p["n_kappa_points"], "parameters.n_kappa_points", path))
+    return DesignParams(**kw)
+
+
+def _report(doc: dict, path: Path) -> ConstructibilityReport | None:
+    r = doc.get("report")
+    if r is None:
+        return None
+    try:
+        return ConstructibilityReport(
+            sigma=dict(r["sigma"]), kappa1=dict(r["kappa1_per_m"]), kappa2=dict(r["kappa2_per_m"]),
+            constructible=bool(r["constructible"]), reasons=list(r.get("reasons", [])),
+            sigma_band=tuple(r.get("sigma_band", (0.9, 1.1))),
+            **({"kappa_max": float(r["kappa_max_per_m"])} if "kappa_max_per_m" in r else {}))
+    except (KeyError, TypeError, ValueError) as err:
+        raise InputError(f"report lacks field {err}", path=path) from None
+
+
+def read_design(folder) -> DesignResult:
+    """Read a folder written by :func:`write_design` (``airmat design``) into a DesignResult.
+
+    Ŝ comes from ``approx_surface.ply`` (float32 mm in the file), the strings
+    from ``design.json`` (0.01 mm), the calibration samples from
+    ``calibration_samples.npz`` (exact). ``mfield``, ``stripes`` and Ŝ's
+    ``target``, ``relax`` and ``curvature`` are None: the files do not keep them.
+    A folder written by another tool needs only ``mattress``, ``calibration.delta_mm``,
+    ``dashes`` and ``approx_surface.ply``: Ŝ's ``report`` is then None and the
+    parameters are the defaults.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        A missing folder or file, a missing or non-numeric field (named), a
+        string outside the mattress (its id named), or inconsistent lengths.
+    """
+    folder = Path(folder)
+    path = folder / "design.json"
+    if not folder.is_dir():
+        raise InputError("design folder not found (give the --out folder of 'airmat design')", path=folder)
+    if not path.is_file():
+        raise InputError("no design.json here: give the --out folder of 'airmat design'", path=folder)
+    doc = read_design_json(path)
+    size = {k: _number(_get(doc, f"mattress.{k}_mm", path), f"mattress.{k}_mm", path) * MM
+            for k in ("width", "height", "thickness")}
+    if min(size.values()) <= 0:
+        raise InputError("mattress sizes must be > 0", path=path)
+    mattress = Mattress(size["width"], size["height"], size["thickness"])
+    dashes = _get(doc, "dashes", path)
+    if not isinstance(dashes, list):
+        raise InputError("field 'dashes' must be a list", path=path)
+    strings = tuple(_string(dash, k, path, mattress.width, mattress.height) for k, dash in enumerate(dashes))
+    params = _params(doc, path)
+    L = params.L
+    if isinstance(doc.get("calibration"), dict) and "L_mm" in doc["calibration"]:
+        L = _number(doc["calibration"]["L_mm"], "calibration.L_mm", path) * MM
+    if L is None:           # a folder from another tool: the dashes' own spacing
+        L = float(np.median([s.dash.length for s in strings])) if strings else math.nan
+    calibration = _calibration(folder, doc, path, L, mattress.thickness)
+    params = params if params.L is not None else DesignParams(**{**params.__dict__, "L": L})
+    summary = doc.get("summary", {})
+    pattern = Pattern(strings=strings, L=params.L,
+                      n_dashes=dict(summary.get("dashes", {})), n_no_string=dict(summary.get("no_string", {})),
+                      notes=tuple(summary.get("notes", ())))
+    xyz, uv, faces = read_approx_surface(folder / "approx_surface.ply")
+    approx = ApproxSurface(target=None, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
+                           report=_report(doc, path))
+    return DesignResult(name=str(doc.get("name", folder.name)), approx=approx, pattern=pattern,
+                        calibration=calibration, params=params, seed=int(doc.get("seed", 0)), source=str(folder))

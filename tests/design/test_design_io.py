@@ -1,0 +1,91 @@
+"""A design's folder: write -> read gives the same DesignResult within the files' precision, and the
+check gives the same answer on the design in memory as on the design read back."""
+
+import numpy as np
+import pytest
+
+from airmat.errors import InputError
+from check.inflation_check import check, design_strings
+from design.design_io import OUTPUT_FILES, read_design, write_design
+from design.pipeline import DesignParams, design
+from design.presets import preset
+
+
+@pytest.fixture(scope="module")
+def vault(tmp_path_factory):
+    target, mattress = preset("vault1")
+    result = design(target, mattress, params=DesignParams(spacing=0.03), seed=3, progress=False)
+    folder = tmp_path_factory.mktemp("design")
+    write_design(result, folder)
+    return result, folder
+
+
+def test_folder_holds_every_output_file(vault):
+    _, folder = vault
+    assert sorted(p.name for p in folder.iterdir()) == sorted(OUTPUT_FILES)
+
+
+def test_round_trip_within_the_files_precision(vault):
+    result, folder = vault
+    back = read_design(folder)
+    assert back.source == str(folder) and back.name == result.name and back.seed == result.seed
+    for key in ("width", "height", "thickness"):
+        assert getattr(back.mattress, key) == pytest.approx(getattr(result.mattress, key), rel=1e-12)
+    # Ŝ: float32 mm in the PLY
+    np.testing.assert_allclose(back.approx.xyz, result.approx.xyz, atol=1e-6)
+    np.testing.assert_allclose(back.approx.uv, result.approx.uv, atol=1e-6)
+    np.testing.assert_array_equal(back.approx.faces, result.approx.faces)
+    # the report: 5 digits of sigma, 4 of kappa
+    for key in ("min", "avg", "max"):
+        assert back.approx.report.sigma[key] == pytest.approx(result.approx.report.sigma[key], abs=1e-5)
+        assert back.approx.report.kappa1.get(key, 0) == pytest.approx(result.approx.report.kappa1.get(key, 0),
+                                                                      abs=1e-4)
+    assert back.approx.report.constructible == result.approx.report.constructible
+    # the strings: 0.01 mm in design.json, kappa to 1e-4 1/m
+    assert len(back.pattern.strings) == len(result.pattern.strings) > 0
+    for s, t in zip(back.pattern.strings, result.pattern.strings):
+        assert (s.dash.id, s.dash.family, s.dash.line, s.dash.index, s.side, s.flags) == \
+               (t.dash.id, t.dash.family, t.dash.line, t.dash.index, t.side, t.flags)
+        np.testing.assert_allclose(s.dash.polyline, t.dash.polyline, atol=5e-6)
+        for key in ("l_median", "l_lo95", "l_hi95"):
+            assert getattr(s, key) == pytest.approx(getattr(t, key), abs=5e-6)
+        assert s.kappa == pytest.approx(t.kappa, abs=5e-5)
+    assert back.pattern.n_dashes == result.pattern.n_dashes and back.pattern.notes == result.pattern.notes
+    # the calibration samples: exact
+    np.testing.assert_array_equal(back.calibration.delta, result.calibration.delta)
+    np.testing.assert_array_equal(back.calibration.d, result.calibration.d)
+    assert back.calibration.L == result.calibration.L and back.calibration.label == result.calibration.label
+    # the parameters: 0.001 mm
+    for key in ("L", "mu1", "mu2", "margin", "spacing"):
+        assert getattr(back.params, key) == pytest.approx(getattr(result.params, key), abs=5e-7)
+    assert back.params.weights() == pytest.approx(result.params.weights())
+    # the simulator's strings: the same to the files' precision
+    a, b = design_strings(back, "lo95"), design_strings(result, "lo95")
+    np.testing.assert_allclose(a.rest, b.rest, atol=5e-6)
+    np.testing.assert_array_equal(a.top, b.top)
+
+
+@pytest.mark.slow
+def test_check_in_memory_equals_check_of_the_folder(vault):
+    """The in-memory pipeline and the file adapter feed the check the same design."""
+    result, folder = vault
+    mem = check(result, resolution=0.05, envelope=False).runs["median"]
+    disk = check(read_design(folder), resolution=0.05, envelope=False).runs["median"]
+    assert mem.inflation.converged and disk.inflation.converged
+    # lengths differ by < 0.005 mm (rounding), so the shapes differ by far less than a millimetre
+    assert abs(mem.deviation.rms - disk.deviation.rms) < 1e-4
+    np.testing.assert_allclose(mem.kappa_realized, disk.kappa_realized, atol=1e-2)
+
+
+def test_a_missing_folder_or_field_is_an_input_error(vault, tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        read_design(tmp_path / "nope")
+    _, folder = vault
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    for name in ("approx_surface.ply",):
+        (broken / name).write_bytes((folder / name).read_bytes())
+    (broken / "design.json").write_text('{"mattress": {"width_mm": 830, "height_mm": 740}, "dashes": []}')
+    with pytest.raises(InputError, match="mattress.thickness_mm") as err:
+        read_design(broken)
+    assert err.value.path.endswith("design.json")
