@@ -21,10 +21,10 @@ def test_specimen_strings_are_chained_staggered_and_inside():
 
 @pytest.mark.slow
 def test_simulated_curvature_follows_equation3():
-    # the simulator itself: the curvature it realizes along the strings (the circle through each
-    # string's ends and middle on the simulated mid-surface) rises as l/L falls and lies 0-40 %
-    # above Equation 3 with Delta = 0 (l/L = 0.45, 0.6, 0.8 at 50 mm: +30, +23, +17 %; at 40 mm: +27, +21,
-    # +18 %; at 20 mm the README's table: +10 to +30 %)
+    # the simulator itself: the curvature it realizes along the strings (the circle through
+    # each string's ends and middle on the simulated mid-surface) rises as l/L falls and lies
+    # 0-40 % above Equation 3 with Delta = 0 (l/L = 0.45, 0.6, 0.8 at 50 mm: +30, +23, +17 %;
+    # at 40 mm: +27, +21, +18 %; at 20 mm the README's table: +10 to +30 %)
     ratios = (0.45, 0.6, 0.8)
     pts = validate_equation3(ratios, resolution=0.05, workers=2)     # also the worker processes
     assert [p.l_over_L for p in pts] == list(ratios)
