@@ -222,8 +222,9 @@ def sample_posterior(data: SpecimenData, *, priors: Priors = DEFAULT_PRIORS, n_w
     as the default stretch move here (integrated autocorrelation times of
     11-16 steps against 30-35 on 12 specimens, sampling log sigma), so about
     600-900 steps of 32 walkers reach 50 tau. Each step evaluates Equation 3 twice (once per half
-    ensemble) on a (16, S) batch; with ``calib.model.kappa1`` costing about
-    2.5-3.5 ms per call this is 4-6 s on a 2-core machine.
+    ensemble) on a (16, S) batch; ``calib.model.kappa1`` costs 0.25-0.5 ms per (16, 12) call
+    (``bench/bench_calibration.py``), so the model takes under a second of the run (the whole
+    MCMC of 32 walkers x 700 steps: 1.2 s on the 2-core reference machine).
 
     Returns
     -------

@@ -120,10 +120,11 @@ def write_ply(path: str | os.PathLike, points, *, encoding: str = "binary_little
 
     Examples
     --------
-    >>> import tempfile, os
-    >>> p = os.path.join(tempfile.mkdtemp(), "a.ply")
-    >>> write_ply(p, np.eye(3), encoding="binary_big_endian", dtype="float64")
-    >>> open(p, "rb").read(40).split(b"\\n")[1]
+    >>> import pathlib, tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = pathlib.Path(d) / "a.ply"
+    ...     write_ply(p, np.eye(3), encoding="binary_big_endian", dtype="float64")
+    ...     p.read_bytes().split(b"\\n")[1]
     b'format binary_big_endian 1.0'
     """
     if encoding not in ENCODINGS:

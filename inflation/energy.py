@@ -83,7 +83,8 @@ class Model:
     pressure : float
         p (Pa).
     smoothing : scipy.sparse.csr_matrix of shape (n, n)
-        ``k5 A^T A`` with ``A = I - W`` the per-face uniform Laplacian, so
+        ``k5 A^T A`` with ``A = I - W`` the per-face Laplacian with the
+        cotangent weights of the flat mesh (:func:`smoothing_matrix`), so
         that ``U_B5 = 1/2 tr(X^T Q X)`` (N/m).
     """
 

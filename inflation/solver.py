@@ -236,8 +236,11 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
     Raises
     ------
     airmat.errors.ConvergenceError
-        On divergence (non-finite values, an edge strained > 50 %, no descent
-        direction), or on non-convergence with ``strict=True``.
+        On divergence (non-finite values, an edge strained > 50 %) or a Newton
+        matrix that stays indefinite however far it is shifted. With
+        ``strict=True`` also when no step lowers U_B (no descent direction)
+        or ``max_iter`` runs out; without it those return
+        ``converged=False`` with the reason in ``message`` (and a warning logged).
     """
     t0 = time.perf_counter()
     x = np.array(x0, dtype=float, copy=True)
