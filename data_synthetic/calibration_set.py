@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.atomic import staged_dir
+from airmat.constants import PAPER_D, PAPER_DELTA, PAPER_L
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
 from calib.manifest import write_manifest_text
@@ -95,7 +96,7 @@ def _truth(delta, d, L, l, k_model, k_true, scatter, scans, seed, n_points) -> d
     }
 
 
-def calibration_set(out, *, delta: float = 0.018, d: float = 0.070, L: float = 0.300,
+def calibration_set(out, *, delta: float = PAPER_DELTA, d: float = PAPER_D, L: float = PAPER_L,
                     l_over_L=DEFAULT_L_OVER_L, n_points: int = 100_000, scatter: float = 0.03,
                     seed: int = 0, **scan_options) -> CalibrationSet:
     """Write a synthetic calibration set (scans, manifest.csv, truth.json) to ``out``.

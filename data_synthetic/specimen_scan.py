@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from airmat.constants import PAPER_D, PAPER_L
 from airmat.errors import InputError
 
 __all__ = ["SpecimenScan", "specimen_scan", "SPECIMEN", "FLOOR", "CLUTTER"]
@@ -84,8 +85,8 @@ class SpecimenScan:
     noise: float
 
 
-def specimen_scan(kappa: float, *, L: float = 0.3, n_strings: int = 3, width: float = 0.4,
-                  thickness: float = 0.07, n_points: int = 100_000, noise: float = 0.0005,
+def specimen_scan(kappa: float, *, L: float = PAPER_L, n_strings: int = 3, width: float = 0.4,
+                  thickness: float = PAPER_D, n_points: int = 100_000, noise: float = 0.0005,
                   floor: bool = True, outlier_fraction: float = 0.05, holes: bool = True,
                   groove_depth: float = 0.004, max_arc_deg: float = 150.0,
                   density_variation: float = 0.5, seed=0, arc_deg: float | None = None,

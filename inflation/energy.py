@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from airmat.geometry.topology import boundary_vertices, cotangent_umbrella
+
 __all__ = ["Springs", "Model", "spring_profile", "spring_terms", "volume_terms", "smoothing_matrix",
            "energy", "energy_and_gradient", "hessian_blocks", "pressure_forces"]
 
@@ -248,14 +250,9 @@ def smoothing_matrix(uv_grid: np.ndarray, grid_faces: np.ndarray, top: np.ndarra
     scipy.sparse.csr_matrix of shape (n, n)
         Constant Hessian (per coordinate) of U_B5 (N/m).
     """
-    import igl
-
     g = len(top)
-    cot = sp.csr_matrix(igl.cotmatrix(np.column_stack([uv_grid, np.zeros(g)]), grid_faces))
-    boundary = np.unique(igl.boundary_facets(grid_faces)[0])
-    interior = np.setdiff1d(np.arange(g), boundary)
-    lap = sp.diags(-1.0 / cot.diagonal()) @ cot                  # rows: x_i - weighted average
-    lap = lap[interior]
+    interior = np.setdiff1d(np.arange(g), boundary_vertices(grid_faces))
+    lap = cotangent_umbrella(uv_grid, grid_faces)[interior]      # rows: x_i - weighted average
     both = np.concatenate([top, bottom])
     rows = sp.block_diag([lap, lap], format="csr")
     a = rows @ sp.coo_matrix((np.ones(2 * g), (np.arange(2 * g), both)), shape=(2 * g, n_vertices)).tocsr()
