@@ -266,14 +266,6 @@ def energy(model: Model, x: np.ndarray) -> float:
     return e + 0.5 * float(np.einsum("ij,ij->", x, model.smoothing @ x))
 
 
-def energy_terms(model: Model, x: np.ndarray) -> dict:
-    """Each term of U_B (J) by name: B1, B2 (-p Vol), B3, B4, B5."""
-    out = {s.name: spring_terms(x, s, gradient=False)[0] for s in model.springs}
-    out["B2"] = -model.pressure * volume_terms(x, model.faces, gradient=False)[0]
-    out["B5"] = 0.5 * float(np.einsum("ij,ij->", x, model.smoothing @ x))
-    return out
-
-
 def energy_and_gradient(model: Model, x: np.ndarray) -> tuple:
     """U_B (J) and its gradient (n, 3) (N)."""
     e, g = 0.0, model.smoothing @ x
