@@ -149,7 +149,8 @@ def specimen_scan(kappa: float, *, L: float = PAPER_L, n_strings: int = 3, width
     >>> s.points.shape, round(s.radius, 3)
     ((20000, 3), 0.2)
     """
-    _check(kappa, n_points, noise, outlier_fraction, floor_fraction, density_variation, arc_deg)
+    _check(kappa, n_points=n_points, noise=noise, outlier_fraction=outlier_fraction,
+           floor_fraction=floor_fraction, density_variation=density_variation, arc_deg=arc_deg)
     rng = np.random.default_rng(seed)
     kappa = float(kappa)
     strip = (n_strings + 0.5) * L
@@ -167,8 +168,9 @@ def specimen_scan(kappa: float, *, L: float = PAPER_L, n_strings: int = 3, width
     n_floor = int(round(floor_fraction * n_points)) if floor else 0
     n_out = int(round(outlier_fraction * n_points))
     n_spec = n_points - n_floor - n_out
-    spec = _specimen(rng, n_spec, kappa, window, width, tilt, grooves, groove_depth, groove_width,
-                     density_variation, holes, n_holes, hole_radius)
+    spec = _specimen(rng, n_spec, kappa=kappa, window=window, width=width, tilt=tilt, grooves=grooves,
+                     depth=groove_depth, groove_width=groove_width, density_variation=density_variation,
+                     holes=holes, n_holes=n_holes, hole_radius=hole_radius)
     z_floor = spec[:, 2].min() - thickness
     parts = [spec]
     if n_floor:
@@ -186,7 +188,7 @@ def specimen_scan(kappa: float, *, L: float = PAPER_L, n_strings: int = 3, width
                         groove_s=grooves, rotation=rot, translation=trans, noise=float(noise))
 
 
-def _check(kappa, n_points, noise, outlier_fraction, floor_fraction, density_variation, arc_deg):
+def _check(kappa, *, n_points, noise, outlier_fraction, floor_fraction, density_variation, arc_deg):
     if not (np.isfinite(kappa) and kappa >= 0):
         raise InputError(f"kappa must be finite and >= 0 1/m, got {kappa!r}", kappa=kappa)
     if n_points < 100:
@@ -203,7 +205,7 @@ def _check(kappa, n_points, noise, outlier_fraction, floor_fraction, density_var
         raise InputError(f"arc_deg must be in (0, 180], got {arc_deg!r}")
 
 
-def _specimen(rng, n, kappa, window, width, tilt, grooves, depth, groove_width,
+def _specimen(rng, n, *, kappa, window, width, tilt, grooves, depth, groove_width,
               density_variation, holes, n_holes, hole_radius):
     """(n, 3) points of the visible face in the specimen frame (noise-free)."""
     lam = rng.uniform(0.15, 0.4, 2)
