@@ -10,11 +10,16 @@ The two users pick different diagonals, and the choice changes their results:
   the diagonal alternates like a chequerboard, so the mesh has no preferred
   diagonal direction and every interior vertex's neighbours are centrally
   symmetric: the U_A3 umbrella term vanishes on the flat Ω and Ŝ is not
-  biased along one diagonal. Any cell count works.
+  biased along one diagonal. Any cell count works (the designer's is
+  ``ceil(W / spacing)``, often odd: then the mesh is not mirror-symmetric,
+  which the designer does not need).
 - ``"union_jack"`` (the simulator, :func:`inflation.mesh.build_mattress_mesh`):
   every diagonal points toward the centre of Ω, so with an even number of
   cells per side the mesh is exactly symmetric under both mirrors of the
   rectangle and a symmetric string pattern inflates to a symmetric shape.
+  (An alternating grid with even counts is mirror-symmetric too, but it is a
+  different mesh: the simulator's results, and its tests' tolerances, are
+  those of the union jack.)
 
 Lengths in metres (any unit works: nothing here has a scale).
 """
