@@ -206,11 +206,13 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     # a flat specimen keeps the footprint's axis: choosing the direction of largest
     # apparent curvature would bias |kappa| up
     frame, final, used, n_more = full_resolution_fit(
-        cand, stage.frame, sigma, band_sigmas, loss, loss_sigmas * sigma, n_subsample, groove_sigmas,
-        rng, True if init.flat else None)
-    limits = (inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel)
-    return _summarize(cand, frame, final, used, len(pts), n_support, (noise_level, sigma),
-                      stage.n_iter + n_more, init.scatter, limits, loss, loss_sigmas * sigma, n_clusters)
+        cand, stage.frame, sigma=sigma, band_sigmas=band_sigmas, loss=loss, f_scale=loss_sigmas * sigma,
+        n_subsample=n_subsample, groove_sigmas=groove_sigmas, rng=rng, hold_axis=True if init.flat else None)
+    return _summarize(cand, frame, final, used=used, n_points=len(pts), n_support=n_support,
+                      noise=noise_level, sigma=sigma, n_iter=stage.n_iter + n_more, scatter=init.scatter,
+                      inlier_sigmas=inlier_sigmas, min_inlier_fraction=min_inlier_fraction,
+                      max_rms_ratio=max_rms_ratio, max_rms_rel=max_rms_rel, loss=loss,
+                      f_scale=loss_sigmas * sigma, n_clusters=n_clusters)
 
 
 def _start(cand_sub, voxel, sigma, diag, max_planarity, rng):
@@ -248,11 +250,12 @@ def _check_points(points) -> np.ndarray:
     return pts
 
 
-def _summarize(cand, frame, final, used, n_points, n_support, sigmas, n_iter, scatter, limits, loss,
-               f_scale, n_clusters):
-    """Inliers, refusal checks, standard error, arc and centre: the CylinderFit."""
-    noise, sigma = sigmas  # local noise; working residual scale (>= noise)
-    inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel = limits
+def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n_iter, scatter,
+               inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters):
+    """Inliers, refusal checks, standard error, arc and centre: the CylinderFit.
+
+    ``noise`` is the local noise, ``sigma`` the working residual scale (>= noise), both m.
+    """
     e = residuals(cand, frame)
     near = np.abs(e) < 10 * sigma
     stride = max(len(e) // 50_000, 1)  # order statistics from a systematic subsample (speed)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from airmat.errors import ConvergenceError
-from calib.cylinder_lsq import CylinderFrame, RefineResult, _left_jacobian, _Problem, arc_position
+from calib.cylinder_lsq import CylinderFrame, CylinderProblem, RefineResult, arc_position, left_jacobian
 
 __all__ = ["polish", "kappa_standard_error", "loss_weights", "loss_slopes", "robust_cost"]
 
@@ -96,7 +96,7 @@ def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     RefineResult
     """
     points = np.asarray(points, dtype=float)
-    prob = _Problem(points, frame)
+    prob = CylinderProblem(points, frame)
     scale = prob.scale
     f = f_scale / scale
     x = prob.x0()
@@ -159,7 +159,7 @@ def _frozen_spin_step(A, grad, prob, x):
     """Gauss-Newton step with no rotation about the current normal (the undetermined
     axis direction of a flat surface), by solving in the orthogonal complement."""
     _, n, _ = prob._frame(x)
-    c = np.concatenate([_left_jacobian(x[:3]).T @ n, [0.0, 0.0]])
+    c = np.concatenate([left_jacobian(x[:3]).T @ n, [0.0, 0.0]])
     basis = np.linalg.svd(c[None, :])[2][1:]  # (4, 5): orthonormal, orthogonal to c
     y = -np.linalg.solve(basis @ A @ basis.T, basis @ grad)
     return basis.T @ y
@@ -206,7 +206,7 @@ def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: f
     """
     points = np.asarray(points, dtype=float)
     if state is None:
-        prob = _Problem(points, frame)
+        prob = CylinderProblem(points, frame)
         e, Jt = prob.fun_jac(prob.x0())
         state = (e, Jt, prob.scale)
     e, Jt, scale = state

@@ -34,8 +34,8 @@ from scipy.spatial.transform import Rotation
 
 from airmat.errors import ConvergenceError
 
-__all__ = ["CylinderFrame", "residuals", "residuals_and_jacobian", "arc_position", "refine",
-           "RefineResult"]
+__all__ = ["CylinderFrame", "CylinderProblem", "left_jacobian", "residuals", "residuals_and_jacobian",
+           "arc_position", "refine", "RefineResult"]
 
 
 @dataclass(frozen=True)
@@ -101,7 +101,7 @@ def residuals_and_jacobian(points: np.ndarray, frame: CylinderFrame):
     rotation vector in world axes), the shift of the origin along the normal
     (per metre) and kappa (per 1/m).
     """
-    prob = _Problem(np.asarray(points, dtype=float), frame, 1.0)
+    prob = CylinderProblem(np.asarray(points, dtype=float), frame, 1.0)
     return prob.fun_jac(prob.x0())
 
 
@@ -117,7 +117,7 @@ def arc_position(points: np.ndarray, frame: CylinderFrame) -> np.ndarray:
     return np.arctan2(k * X, 1.0 - k * Z) / k
 
 
-def _left_jacobian(w: np.ndarray) -> np.ndarray:
+def left_jacobian(w: np.ndarray) -> np.ndarray:
     """Left Jacobian of SO(3) at rotation vector ``w``: d Exp(w) = Exp(J dw) Exp(w)."""
     th = float(np.linalg.norm(w))
     K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
@@ -126,8 +126,11 @@ def _left_jacobian(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + (1 - np.cos(th)) / th**2 * K + (th - np.sin(th)) / th**3 * (K @ K)
 
 
-class _Problem:
+class CylinderProblem:
     """Normalized coordinates and the residual/Jacobian closures of one fit.
+
+    Shared by :func:`refine` (scipy's least_squares) and
+    :func:`calib.cylinder_irls.polish` (Gauss-Newton on a million points).
 
     Coordinates are stored transposed, (3, N), and the Jacobian is built as
     (5, N) rows, so that every pass over the points is contiguous and the
@@ -172,7 +175,7 @@ class _Problem:
         np.subtract(a[2] * w0, a[0] * w2, out=g[1])
         np.subtract(a[0] * w1, a[1] * w0, out=g[2])
         Jt = np.empty((5, len(e)))
-        np.matmul(_left_jacobian(x[:3]).T, g, out=Jt[:3])
+        np.matmul(left_jacobian(x[:3]).T, g, out=Jt[:3])
         np.negative(dZ, out=Jt[3])
         Jt[4] = dk
         return e, Jt
@@ -237,7 +240,7 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     airmat.errors.ConvergenceError
         If the fit produced non-finite parameters.
     """
-    prob = _Problem(np.asarray(points, dtype=float), frame)
+    prob = CylinderProblem(np.asarray(points, dtype=float), frame)
     scale = prob.scale
     res = least_squares(prob.fun, prob.x0(), jac=prob.jac, loss=loss, f_scale=f_scale / scale,
                         method="trf", x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)

@@ -59,7 +59,7 @@ def _residual_scale(e: np.ndarray, sigma: float, n_doublings: int = 8) -> float:
     return scale
 
 
-def full_resolution_fit(cand, frame, sigma, band_sigmas, loss, f_scale, n_subsample, groove_sigmas, rng,
+def full_resolution_fit(cand, frame, *, sigma, band_sigmas, loss, f_scale, n_subsample, groove_sigmas, rng,
                         hold_axis, n_rounds=5):
     """Robust fit on the full-resolution points near the surface.
 

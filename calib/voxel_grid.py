@@ -1,4 +1,4 @@
-"""Voxel grids with per-voxel statistics: downsampling that keeps counts and normals.
+"""Voxel grids with per-voxel statistics: point counts, centroids and covariances.
 
 open3d's ``voxel_down_sample`` returns the centroids only. The cylinder fit
 also needs, per voxel, how many points fell in it (isolated clutter points
@@ -69,8 +69,6 @@ class VoxelCloud:
     ----------
     points : ndarray of shape (V, 3)
         Voxel centroids (m).
-    normals : ndarray of shape (V, 3)
-        Unit normals (smallest eigenvector of each voxel's covariance; sign arbitrary).
     counts : ndarray of shape (V,)
         Points per voxel.
     voxel : float
@@ -78,13 +76,12 @@ class VoxelCloud:
     """
 
     points: np.ndarray
-    normals: np.ndarray
     counts: np.ndarray
     voxel: float
 
 
 def voxel_cloud(points: np.ndarray, voxel: float, *, min_count: int = 3) -> VoxelCloud:
-    """Downsample to voxel centroids with normals, dropping sparse (clutter) voxels.
+    """Downsample to voxel centroids, dropping sparse (clutter) voxels.
 
     Parameters
     ----------
@@ -93,14 +90,13 @@ def voxel_cloud(points: np.ndarray, voxel: float, *, min_count: int = 3) -> Voxe
     voxel : float
         Voxel edge length (m).
     min_count : int
-        Voxels with fewer points are dropped (isolated clutter). At least 3,
-        so every kept voxel has a covariance with a normal.
+        Voxels with fewer points are dropped (isolated clutter); at least 3
+        (a surface's voxels are well filled).
 
     Returns
     -------
     VoxelCloud
     """
-    _, count, centroid, cov = voxel_moments(points, voxel)
+    _, count, centroid, _ = voxel_moments(points, voxel)
     keep = count >= max(min_count, 3)
-    _, vec = np.linalg.eigh(cov[keep])
-    return VoxelCloud(points=centroid[keep], normals=vec[:, :, 0], counts=count[keep], voxel=float(voxel))
+    return VoxelCloud(points=centroid[keep], counts=count[keep], voxel=float(voxel))

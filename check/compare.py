@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from airmat.geometry.polyline import midpoints
 from inflation.mesh import locate
 
 __all__ = ["Deviation", "surface_at", "deviation", "realized_curvature"]
@@ -89,17 +90,6 @@ def deviation(inflation, approx_xyz, approx_uv) -> Deviation:
                      per_vertex=dist, aligned=aligned)
 
 
-def _midpoints(polylines) -> np.ndarray:
-    """The point halfway along each polyline by arc length (k, 2)."""
-    out = []
-    for poly in polylines:  # one per dash: a handful of points each
-        seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
-        s = np.concatenate([[0.0], np.cumsum(seg)])
-        half = 0.5 * s[-1]
-        out.append([np.interp(half, s, poly[:, 0]), np.interp(half, s, poly[:, 1])])
-    return np.asarray(out, float).reshape(-1, 2)
-
-
 def realized_curvature(inflation, a, b, polylines) -> np.ndarray:
     """Signed curvature (1/m) the simulated mid-surface realizes along each dash.
 
@@ -117,7 +107,7 @@ def realized_curvature(inflation, a, b, polylines) -> np.ndarray:
     k = len(a)
     if k == 0:
         return np.zeros(0)
-    pts = np.concatenate([np.asarray(a, float), _midpoints(polylines), np.asarray(b, float)])
+    pts = np.concatenate([np.asarray(a, float), midpoints(polylines), np.asarray(b, float)])
     xyz, up = surface_at(inflation, pts)
     p, m, q = xyz[:k], xyz[k:2 * k], xyz[2 * k:]
     area2 = np.linalg.norm(np.cross(m - p, q - p), axis=1)

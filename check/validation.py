@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airmat.constants import PAPER_D, PAPER_L
 from airmat.errors import NotACylinderError
 from calib.cylinder_fit import fit_cylinder
 from calib.model import kappa1
@@ -34,12 +35,12 @@ log = logging.getLogger(__name__)
 class SpecimenLayout:
     """The simulated specimen (m): ``n_series`` strings of span L along u per row, rows ``row_spacing`` apart."""
 
-    L: float = 0.300
+    L: float = PAPER_L
     n_series: int = 3
     n_rows: int = 4
     row_spacing: float = 0.100
     margin: float = 0.050
-    thickness: float = 0.070
+    thickness: float = PAPER_D
 
     @property
     def width(self) -> float:

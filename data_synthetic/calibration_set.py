@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.atomic import staged_dir
+from airmat.constants import PAPER_D, PAPER_DELTA, PAPER_L
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
 from calib.manifest import write_manifest_text
@@ -83,7 +84,7 @@ def _extras(rng, n, colors, names):
     return col, extra
 
 
-def _truth(delta, d, L, l, k_model, k_true, scatter, scans, seed, n_points) -> dict:
+def _truth(*, delta, d, L, l, k_model, k_true, scatter, scans, seed, n_points) -> dict:
     return {
         "delta_mm": delta * M_TO_MM, "d_mm": d * M_TO_MM, "L_mm": L * M_TO_MM,
         "sigma_per_m": float(np.sqrt(np.mean((k_true - k_model) ** 2))),
@@ -95,7 +96,7 @@ def _truth(delta, d, L, l, k_model, k_true, scatter, scans, seed, n_points) -> d
     }
 
 
-def calibration_set(out, *, delta: float = 0.018, d: float = 0.070, L: float = 0.300,
+def calibration_set(out, *, delta: float = PAPER_DELTA, d: float = PAPER_D, L: float = PAPER_L,
                     l_over_L=DEFAULT_L_OVER_L, n_points: int = 100_000, scatter: float = 0.03,
                     seed: int = 0, **scan_options) -> CalibrationSet:
     """Write a synthetic calibration set (scans, manifest.csv, truth.json) to ``out``.
@@ -148,7 +149,8 @@ def calibration_set(out, *, delta: float = 0.018, d: float = 0.070, L: float = 0
                       colors=col, extra=extra)
         (tmp / "manifest.csv").write_text(
             write_manifest_text(scans, l * M_TO_MM, np.full(l.size, L * M_TO_MM)), encoding="utf-8")
-        truth = _truth(delta, d, L, l, k_model, k_true, scatter, scans, seed, n_points)
+        truth = _truth(delta=delta, d=d, L=L, l=l, k_model=k_model, k_true=k_true, scatter=scatter,
+                       scans=scans, seed=seed, n_points=n_points)
         (tmp / "truth.json").write_text(json.dumps(truth, indent=1) + "\n", encoding="utf-8")
     out = Path(out)
     return CalibrationSet(folder=str(out), manifest=str(out / "manifest.csv"),

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from airmat.constants import PAPER_D, PAPER_L
 from airmat.errors import InputError
 
 __all__ = ["SpecimenScan", "specimen_scan", "SPECIMEN", "FLOOR", "CLUTTER"]
@@ -84,8 +85,8 @@ class SpecimenScan:
     noise: float
 
 
-def specimen_scan(kappa: float, *, L: float = 0.3, n_strings: int = 3, width: float = 0.4,
-                  thickness: float = 0.07, n_points: int = 100_000, noise: float = 0.0005,
+def specimen_scan(kappa: float, *, L: float = PAPER_L, n_strings: int = 3, width: float = 0.4,
+                  thickness: float = PAPER_D, n_points: int = 100_000, noise: float = 0.0005,
                   floor: bool = True, outlier_fraction: float = 0.05, holes: bool = True,
                   groove_depth: float = 0.004, max_arc_deg: float = 150.0,
                   density_variation: float = 0.5, seed=0, arc_deg: float | None = None,
@@ -148,7 +149,8 @@ def specimen_scan(kappa: float, *, L: float = 0.3, n_strings: int = 3, width: fl
     >>> s.points.shape, round(s.radius, 3)
     ((20000, 3), 0.2)
     """
-    _check(kappa, n_points, noise, outlier_fraction, floor_fraction, density_variation, arc_deg)
+    _check(kappa, n_points=n_points, noise=noise, outlier_fraction=outlier_fraction,
+           floor_fraction=floor_fraction, density_variation=density_variation, arc_deg=arc_deg)
     rng = np.random.default_rng(seed)
     kappa = float(kappa)
     strip = (n_strings + 0.5) * L
@@ -166,8 +168,9 @@ def specimen_scan(kappa: float, *, L: float = 0.3, n_strings: int = 3, width: fl
     n_floor = int(round(floor_fraction * n_points)) if floor else 0
     n_out = int(round(outlier_fraction * n_points))
     n_spec = n_points - n_floor - n_out
-    spec = _specimen(rng, n_spec, kappa, window, width, tilt, grooves, groove_depth, groove_width,
-                     density_variation, holes, n_holes, hole_radius)
+    spec = _specimen(rng, n_spec, kappa=kappa, window=window, width=width, tilt=tilt, grooves=grooves,
+                     depth=groove_depth, groove_width=groove_width, density_variation=density_variation,
+                     holes=holes, n_holes=n_holes, hole_radius=hole_radius)
     z_floor = spec[:, 2].min() - thickness
     parts = [spec]
     if n_floor:
@@ -185,7 +188,7 @@ def specimen_scan(kappa: float, *, L: float = 0.3, n_strings: int = 3, width: fl
                         groove_s=grooves, rotation=rot, translation=trans, noise=float(noise))
 
 
-def _check(kappa, n_points, noise, outlier_fraction, floor_fraction, density_variation, arc_deg):
+def _check(kappa, *, n_points, noise, outlier_fraction, floor_fraction, density_variation, arc_deg):
     if not (np.isfinite(kappa) and kappa >= 0):
         raise InputError(f"kappa must be finite and >= 0 1/m, got {kappa!r}", kappa=kappa)
     if n_points < 100:
@@ -202,7 +205,7 @@ def _check(kappa, n_points, noise, outlier_fraction, floor_fraction, density_var
         raise InputError(f"arc_deg must be in (0, 180], got {arc_deg!r}")
 
 
-def _specimen(rng, n, kappa, window, width, tilt, grooves, depth, groove_width,
+def _specimen(rng, n, *, kappa, window, width, tilt, grooves, depth, groove_width,
               density_variation, holes, n_holes, hole_radius):
     """(n, 3) points of the visible face in the specimen frame (noise-free)."""
     lam = rng.uniform(0.15, 0.4, 2)

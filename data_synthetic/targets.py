@@ -10,12 +10,14 @@ centre), and an exact principal-curvature function:
 - :func:`saddle` (hyperbolic paraboloid z = x²/(2a) − y²/(2b)).
 
 All are graphs z = h(x, y) near their crown, so one routine
-(:func:`design.curvature.graph_curvature`) gives the exact curvatures from h's derivatives.
-Curvatures are signed against the up normal (CONTRIBUTING.md): κ > 0 where
+(:func:`airmat.geometry.graph_curvature.graph_curvature`) gives the exact curvatures from h's
+derivatives. Curvatures are signed against the up normal (CONTRIBUTING.md): κ > 0 where
 the surface bends away from it (a vault seen from above).
 
-The presets (:func:`preset`) are analogues of the paper's five shapes; see
-``data_synthetic/presets.py``.
+An :class:`AnalyticSurface` is a plain mesh (``vertices``, ``faces``, ``name``):
+test and demo data that imports nothing from the designer, which accepts it as
+a target (:meth:`design.target.Target.from_mesh`). The designer's presets are
+in :mod:`design.presets`.
 """
 
 from __future__ import annotations
@@ -25,27 +27,31 @@ from typing import Callable
 
 import numpy as np
 
-from design.curvature import graph_curvature
-from design.mattress import Mattress, triangulate_mattress
-from design.target import Target
+from airmat.geometry.graph_curvature import graph_curvature
+from airmat.geometry.grid import parametric_mesh
 
-__all__ = ["AnalyticSurface", "cylinder", "cone", "sphere_cap", "saddle", "parametric_mesh"]
+__all__ = ["AnalyticSurface", "cylinder", "cone", "sphere_cap", "saddle"]
 
 
 @dataclass(frozen=True)
 class AnalyticSurface:
-    """A target mesh with its exact curvature.
+    """A triangle mesh of an analytic surface, with its exact curvature.
 
     Attributes
     ----------
-    target : design.target.Target
-        The mesh (m), normals up.
+    vertices : ndarray of shape (n, 3)
+        Vertex positions (m).
+    faces : ndarray of shape (m, 3)
+        Triangles (int64), wound so that the normals point up.
+    name : str
     kind : str
     params : dict
         The surface's parameters (m).
     """
 
-    target: Target
+    vertices: np.ndarray = field(repr=False)
+    faces: np.ndarray = field(repr=False)
+    name: str
     kind: str
     params: dict
     _derivs: Callable = field(repr=False)
@@ -69,17 +75,6 @@ class AnalyticSurface:
         return graph_curvature(*self._derivs(p[:, 0], p[:, 1]))
 
 
-def parametric_mesh(fn, s_range, t_range, *, spacing: float, name: str) -> Target:
-    """Mesh the surface ``fn(s, t) -> (k, 3)`` over a parameter rectangle.
-
-    The parameter grid (spacing ``spacing`` in parameter units, alternating diagonals)
-    is counter-clockwise in (s, t), so the normals point along X_s × X_t.
-    """
-    (s0, s1), (t0, t1) = s_range, t_range
-    st, faces = triangulate_mattress(Mattress(s1 - s0, t1 - t0), spacing=spacing)
-    return Target(fn(st[:, 0] + s0, st[:, 1] + t0), faces, name=name)
-
-
 def cylinder(radius: float = 0.3, *, length: float = 1.2, arc: float = 1.2,
              spacing: float = 0.01) -> AnalyticSurface:
     """A circular cylinder, axis along x, crown along the x axis (z = 0), normals outward.
@@ -95,9 +90,9 @@ def cylinder(radius: float = 0.3, *, length: float = 1.2, arc: float = 1.2,
         g = np.sqrt(np.maximum(r**2 - y**2, 1e-12 * r**2))
         return np.zeros_like(x), -y / g, np.zeros_like(x), np.zeros_like(x), -(r**2) / g**3
 
-    mesh = parametric_mesh(fn, (-length / 2, length / 2), (-arc / 2, arc / 2), spacing=spacing,
-                           name=f"cylinder R{r * 1e3:.0f}mm")
-    return AnalyticSurface(mesh, "cylinder", {"radius": r}, derivs)
+    v, f = parametric_mesh(fn, (-length / 2, length / 2), (-arc / 2, arc / 2), spacing=spacing)
+    name = f"cylinder R{r * 1e3:.0f}mm"
+    return AnalyticSurface(v, f, name, "cylinder", {"radius": r}, derivs)
 
 
 def cone(r_crown: float = 0.3, half_angle: float = 0.25, *, length: float = 1.2, arc: float = 1.0,
@@ -121,9 +116,9 @@ def cone(r_crown: float = 0.3, half_angle: float = 0.25, *, length: float = 1.2,
         g = np.sqrt(np.maximum(rad**2 - y**2, 1e-12 * rad**2))
         return c * rad / g, -y / g, -(c**2) * y**2 / g**3, c * rad * y / g**3, -(rad**2) / g**3
 
-    mesh = parametric_mesh(fn, (-length / 2, length / 2), (-arc / 2, arc / 2), spacing=spacing,
-                           name=f"cone r{rc * 1e3:.0f}mm")
-    return AnalyticSurface(mesh, "cone", {"r_crown": rc, "half_angle": float(half_angle)}, derivs)
+    v, f = parametric_mesh(fn, (-length / 2, length / 2), (-arc / 2, arc / 2), spacing=spacing)
+    name = f"cone r{rc * 1e3:.0f}mm"
+    return AnalyticSurface(v, f, name, "cone", {"r_crown": rc, "half_angle": float(half_angle)}, derivs)
 
 
 def sphere_cap(radius: float = 1.0, *, extent: float = 1.0, spacing: float = 0.01) -> AnalyticSurface:
@@ -143,9 +138,9 @@ def sphere_cap(radius: float = 1.0, *, extent: float = 1.0, spacing: float = 0.0
         g = np.sqrt(np.maximum(r**2 - x**2 - y**2, 1e-12 * r**2))
         return -x / g, -y / g, -(g**2 + x**2) / g**3, -x * y / g**3, -(g**2 + y**2) / g**3
 
-    mesh = parametric_mesh(fn, (-extent / 2, extent / 2), (-extent / 2, extent / 2), spacing=spacing,
-                           name=f"sphere R{r * 1e3:.0f}mm")
-    return AnalyticSurface(mesh, "sphere", {"radius": r}, derivs)
+    v, f = parametric_mesh(fn, (-extent / 2, extent / 2), (-extent / 2, extent / 2), spacing=spacing)
+    name = f"sphere R{r * 1e3:.0f}mm"
+    return AnalyticSurface(v, f, name, "sphere", {"radius": r}, derivs)
 
 
 def saddle(a: float = 0.5, b: float = 1.0, *, extent=(1.2, 1.0), spacing: float = 0.01) -> AnalyticSurface:
@@ -162,6 +157,7 @@ def saddle(a: float = 0.5, b: float = 1.0, *, extent=(1.2, 1.0), spacing: float 
         one = np.ones_like(x)
         return x / a, -y / b, one / a, 0 * one, -one / b
 
-    mesh = parametric_mesh(fn, (-extent[0] / 2, extent[0] / 2), (-extent[1] / 2, extent[1] / 2),
-                           spacing=spacing, name=f"saddle a{a * 1e3:.0f} b{b * 1e3:.0f}mm")
-    return AnalyticSurface(mesh, "saddle", {"a": a, "b": b}, derivs)
+    v, f = parametric_mesh(fn, (-extent[0] / 2, extent[0] / 2), (-extent[1] / 2, extent[1] / 2),
+                           spacing=spacing)
+    name = f"saddle a{a * 1e3:.0f} b{b * 1e3:.0f}mm"
+    return AnalyticSurface(v, f, name, "saddle", {"a": a, "b": b}, derivs)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airmat.constants import PAPER_D, PAPER_D_SD, PAPER_DELTA, PAPER_DELTA_SD, PAPER_L
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
 
@@ -29,7 +30,7 @@ __all__ = ["CalibrationSource", "from_calibration", "load_calibration", "default
 log = logging.getLogger(__name__)
 
 #: the paper's Equation 3 parameters (m) and the nominal 1-sigma uncertainty used without a calibration
-PAPER = {"L": 0.300, "delta": 0.018, "d": 0.070, "delta_sd": 0.003, "d_sd": 0.005}
+PAPER = {"L": PAPER_L, "delta": PAPER_DELTA, "d": PAPER_D, "delta_sd": PAPER_DELTA_SD, "d_sd": PAPER_D_SD}
 
 
 @dataclass(frozen=True)

@@ -14,15 +14,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.relax import mesh_edges
+from airmat.geometry.topology import mesh_edges
 
 __all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX"]
 
 
 def _paper_kappa_max() -> float:
+    from airmat.constants import PAPER_D, PAPER_DELTA, PAPER_L
     from calib.model import kappa_max
 
-    return float(kappa_max(0.30, 0.018, 0.070))
+    return float(kappa_max(PAPER_L, PAPER_DELTA, PAPER_D))
 
 
 #: largest curvature (1/m) a string reaches with the paper's calibration (L 300, Δ 18, d 70 mm)

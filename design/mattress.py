@@ -13,7 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airmat.constants import PAPER_D
 from airmat.errors import InputError
+from airmat.geometry.grid import cell_count, rectangle_grid
 
 __all__ = ["Mattress", "triangulate_mattress"]
 
@@ -42,7 +44,7 @@ class Mattress:
 
     width: float
     height: float
-    thickness: float = 0.07
+    thickness: float = PAPER_D
 
     def __post_init__(self):
         for name in ("width", "height", "thickness"):
@@ -64,7 +66,7 @@ class Mattress:
 
 
 def triangulate_mattress(mattress: Mattress, *, spacing: float = 0.02):
-    """Triangulate Ω with a regular grid of alternating diagonals.
+    """Triangulate Ω with a regular grid of alternating diagonals (:mod:`airmat.geometry.grid`).
 
     The grid has ``ceil(W / spacing)`` × ``ceil(H / spacing)`` cells (so the
     actual spacing is at most ``spacing``, slightly smaller when W or H is
@@ -100,30 +102,16 @@ def triangulate_mattress(mattress: Mattress, *, spacing: float = 0.02):
     """
     if not (math.isfinite(spacing) and spacing > 0):
         raise InputError(f"mesh spacing must be a finite length > 0 m, got {spacing!r}", spacing=spacing)
-    nu_cells = math.ceil(mattress.width / spacing - 1e-9)
-    nv_cells = math.ceil(mattress.height / spacing - 1e-9)
+    nu_cells = cell_count(mattress.width, spacing)
+    nv_cells = cell_count(mattress.height, spacing)
     if min(nu_cells, nv_cells) < 2:
         raise InputError(f"mesh spacing {spacing * 1e3:.0f} mm leaves fewer than 2 cells across the "
                          f"{mattress.size_mm} mattress", spacing=spacing)
     if (nu_cells + 1) * (nv_cells + 1) > MAX_VERTICES:
         raise InputError(f"mesh spacing {spacing * 1e3:.3g} mm gives more than {MAX_VERTICES} vertices "
                          f"on the {mattress.size_mm} mattress (a unit slip?)", spacing=spacing)
-    u = np.linspace(0.0, mattress.width, nu_cells + 1)
-    v = np.linspace(0.0, mattress.height, nv_cells + 1)
-    uu, vv = np.meshgrid(u, v)
-    uv = np.column_stack([uu.ravel(), vv.ravel()])
-    nu = nu_cells + 1
-    i, j = np.meshgrid(np.arange(nu_cells), np.arange(nv_cells))
-    i, j = i.ravel(), j.ravel()
-    a = j * nu + i            # (i, j)
-    b = a + 1                 # (i+1, j)
-    c = a + nu + 1            # (i+1, j+1)
-    d = a + nu                # (i, j+1)
-    even = (i + j) % 2 == 0
-    # even cells: diagonal a-c; odd cells: diagonal b-d; both counter-clockwise
-    t1 = np.where(even[:, None], np.column_stack([a, b, c]), np.column_stack([a, b, d]))
-    t2 = np.where(even[:, None], np.column_stack([a, c, d]), np.column_stack([b, c, d]))
-    faces = np.concatenate([t1, t2]).astype(np.int64)
+    uv, faces = rectangle_grid(mattress.width, mattress.height, nu_cells + 1, nv_cells + 1,
+                               diagonals="alternating")
     log.debug("Ω triangulated: %d vertices, %d faces, spacing %.1f mm",
-              len(uv), len(faces), 1e3 * max(u[1] - u[0], v[1] - v[0]))
+              len(uv), len(faces), 1e3 * max(mattress.width / nu_cells, mattress.height / nv_cells))
     return uv, faces

@@ -147,8 +147,9 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
 
     Parameters
     ----------
-    target : design.target.Target
-        The guide surface S (m).
+    target : design.target.Target or mesh
+        The guide surface S (m); any object with ``vertices``, ``faces`` and ``name``
+        is taken as a Target (:meth:`design.target.Target.from_mesh`).
     mattress : design.mattress.Mattress
         W, H, thickness (m).
     calibration : CalibrationSource, optional

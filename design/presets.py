@@ -18,15 +18,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from airmat.constants import LARGE_MATTRESS, SMALL_MATTRESS
 from airmat.errors import InputError
+from airmat.geometry.grid import parametric_mesh
 from design.mattress import Mattress
 from design.target import Target
-from data_synthetic.targets import parametric_mesh
 
 __all__ = ["preset", "profile_surface", "dome_surface", "PRESETS"]
 
-SMALL = Mattress(0.83, 0.74)
-LARGE = Mattress(2.60, 1.60)
+SMALL = Mattress(*SMALL_MATTRESS)
+LARGE = Mattress(*LARGE_MATTRESS)
 
 
 def profile_surface(kappa0, s0: float, ridge, *, x_half: float, s_half: float, spacing: float,
@@ -66,7 +67,8 @@ def profile_surface(kappa0, s0: float, ridge, *, x_half: float, s_half: float, s
         z = (1 - a) * cz[col, j] + a * cz[col, j + 1]
         return np.column_stack([x, y, z + ridge(x)])
 
-    return parametric_mesh(fn, (-x_half, x_half), (-s_half, s_half), spacing=spacing, name=name)
+    vertices, faces = parametric_mesh(fn, (-x_half, x_half), (-s_half, s_half), spacing=spacing)
+    return Target(vertices, faces, name=name)
 
 
 def dome_surface(semi_axes, *, polar_max: float, subdivisions: int, name: str) -> Target:

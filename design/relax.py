@@ -40,6 +40,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import factorized
 
 from airmat.errors import ConvergenceError
+from airmat.geometry.topology import boundary_edge_mask, cotangent_matrix, mesh_edges
 from airmat.progress import progress as progress_bar
 from airmat.progress import progress_enabled
 from design.anderson import AndersonAcceleration
@@ -93,12 +94,6 @@ class RelaxResult:
     history: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
 
 
-def mesh_edges(faces: np.ndarray) -> np.ndarray:
-    """Unique undirected edges (e, 2) of a triangle mesh, each row sorted."""
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    return np.unique(np.sort(e, axis=1), axis=0)
-
-
 def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan") -> sp.csr_matrix:
     """The A3 operator L with (L x)_i = x_i − mean of i's neighbours, shape (r, n).
 
@@ -115,9 +110,7 @@ def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan")
     """
     n = len(uv)
     e = mesh_edges(faces)
-    tri_e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(tri_e, axis=0, return_counts=True)  # same order as mesh_edges
-    on_rim = counts == 1
+    on_rim = boundary_edge_mask(faces)  # same order as mesh_edges
     rim_vertex = np.zeros(n, bool)
     rim_vertex[e[on_rim].ravel()] = True
     # an interior vertex uses every edge; a rim vertex only rim edges
@@ -127,8 +120,7 @@ def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan")
     ij = ij[keep]
     w = np.ones(len(ij))
     if weights == "cotan":
-        import igl
-        cot = igl.cotmatrix(np.column_stack([uv, np.zeros(n)]), faces).tocsr()
+        cot = cotangent_matrix(uv, faces)
         wc = np.asarray(cot[ij[:, 0], ij[:, 1]]).ravel()
         w = np.where(rim_edge[keep], 1.0, np.where(np.abs(wc) < 1e-12, 0.0, wc))
     adj = sp.csr_matrix((w, (ij[:, 0], ij[:, 1])), shape=(n, n))

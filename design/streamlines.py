@@ -33,6 +33,8 @@ import numpy as np
 from scipy.ndimage import map_coordinates
 from scipy.spatial import cKDTree
 
+from airmat.geometry.polyline import arc_length, interpolate_at
+
 __all__ = ["FieldGrid", "Streamline", "StreamlineSet", "sample_field_grid", "grid_values",
            "trace_streamlines"]
 
@@ -217,21 +219,18 @@ def _trace_line(grid, seed, d0, tree, opts):
     s_back = np.arange(len(back)) * opts["step"]
     fwd, stop_f = _trace_half(grid, seed, d0, tree, (back, s_back), opts)
     pts = np.concatenate([back[::-1], fwd[1:]])
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    arc = arc_length(pts)
     return pts, arc, float(arc[len(back) - 1]), (stop_b, stop_f)
 
 
 def _candidates(line: Streamline, sep: float, every: float) -> tuple[np.ndarray, np.ndarray]:
     """Seeds ``sep`` beside the line on both sides, every ``every`` of arc length: (points, s on line)."""
     s = np.arange(0.0, line.length + 1e-12, every)
-    pu = np.interp(s, line.arclength, line.points[:, 0])
-    pv = np.interp(s, line.arclength, line.points[:, 1])
-    tangent = np.gradient(line.points, axis=0)
-    tu = np.interp(s, line.arclength, tangent[:, 0])
-    tv = np.interp(s, line.arclength, tangent[:, 1])
+    base = interpolate_at(line.points, line.arclength, s)
+    tangent = interpolate_at(np.gradient(line.points, axis=0), line.arclength, s)
+    tu, tv = tangent[:, 0], tangent[:, 1]
     norm = np.hypot(tu, tv)
     normal = np.stack([-tv, tu], axis=1) / norm[:, None]
-    base = np.stack([pu, pv], axis=1)
     pts = np.stack([base + sep * normal, base - sep * normal], axis=1).reshape(-1, 2)
     return pts, np.repeat(s, 2)
 

@@ -26,6 +26,7 @@ import logging
 
 import numpy as np
 
+from airmat.geometry.polyline import points_at_fractions
 from calib.model import flat_length, kappa_max, string_length
 from design.field import FAMILIES
 from design.pattern import Pattern, TensionString
@@ -63,15 +64,9 @@ def dash_kappa(mfield, dashes, *, n_points: int = 10) -> np.ndarray:
         idx = [i for i, d in enumerate(dashes) if d.family == name]
         if not idx:
             continue
-        pts = np.concatenate([_points_along(dashes[i].polyline, t) for i in idx])
+        pts = np.concatenate([points_at_fractions(dashes[i].polyline, t) for i in idx])
         out[idx] = mfield.kappa_at(f, pts).reshape(len(idx), n_points).mean(axis=1)
     return out
-
-
-def _points_along(poly: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Points at arc-length fractions ``t`` (n,) along a polyline (k, 2)."""
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(poly, axis=0), axis=1))])
-    return np.stack([np.interp(t * s[-1], s, poly[:, j]) for j in (0, 1)], axis=1)
 
 
 def length_quantiles(kappa_abs, L: float, delta, d):

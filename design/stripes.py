@@ -20,7 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from airmat.constants import PAPER_L
 from airmat.errors import InputError
+from airmat.geometry.polyline import interpolate_at
 from design.field import FAMILIES
 from design.pattern import Dash
 from design.streamlines import sample_field_grid, trace_streamlines
@@ -56,7 +58,7 @@ class StripeParams:
         principal directions mean nothing); default 0.02.
     """
 
-    L: float = 0.30
+    L: float = PAPER_L
     mu1: float = 0.40
     mu2: float = 0.10
     margin: float = 0.03
@@ -163,8 +165,8 @@ def _count_kept(line, phases: np.ndarray, *, L: float, mu1: float, inside) -> np
     starts = phases[:, None] + mu1 * np.arange(int(total // mu1) + 1)[None, :]      # (T, K)
     valid = starts + L <= total + 1e-9 * mu1
     ends = np.minimum(starts + L, total)
-    a = np.stack([np.interp(starts.ravel(), line.arclength, line.points[:, j]) for j in (0, 1)], axis=1)
-    b = np.stack([np.interp(ends.ravel(), line.arclength, line.points[:, j]) for j in (0, 1)], axis=1)
+    a = interpolate_at(line.points, line.arclength, starts.ravel())
+    b = interpolate_at(line.points, line.arclength, ends.ravel())
     out_s = line.arclength[~inside(line.points)]
     between = (np.searchsorted(out_s, ends, side="left") - np.searchsorted(out_s, starts, side="right"))
     ok = valid & inside(a).reshape(starts.shape) & inside(b).reshape(starts.shape) & (between == 0)
@@ -237,7 +239,7 @@ def cut_dashes(points: np.ndarray, arclength: np.ndarray, *, phase: float, L: fl
     out = []
     for s0 in starts:
         s1 = min(s0 + L, total)
-        ends = np.stack([np.interp([s0, s1], arclength, points[:, j]) for j in (0, 1)], axis=1)
+        ends = interpolate_at(points, arclength, [s0, s1])
         inner = points[(arclength > s0) & (arclength < s1)]
         out.append(np.concatenate([ends[:1], inner, ends[1:]]))
     return out
@@ -249,8 +251,8 @@ def _line_order(lines, keep: list[int]) -> list[int]:
         return []
     along_u = np.mean([abs(lines[i].points[-1, 0] - lines[i].points[0, 0]) >=
                        abs(lines[i].points[-1, 1] - lines[i].points[0, 1]) for i in keep]) >= 0.5
-    mid = np.array([[np.interp(0.5 * lines[i].length, lines[i].arclength, lines[i].points[:, j])
-                     for j in (0, 1)] for i in keep])
+    mid = np.array([interpolate_at(lines[i].points, lines[i].arclength, [0.5 * lines[i].length])[0]
+                    for i in keep])
     primary, secondary = (mid[:, 1], mid[:, 0]) if along_u else (mid[:, 0], mid[:, 1])
     order = np.lexsort((secondary, np.round(primary, 9)))
     return [keep[k] for k in order]

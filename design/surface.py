@@ -78,8 +78,10 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
 
     Parameters
     ----------
-    target : design.target.Target
-        The guide surface S (m).
+    target : design.target.Target or mesh
+        The guide surface S (m); any object with ``vertices``, ``faces`` and ``name``
+        (e.g. an analytic surface of data_synthetic.targets) is taken as a Target
+        (:meth:`design.target.Target.from_mesh`).
     mattress : design.mattress.Mattress
     spacing : float, default 0.02
         Mesh spacing on Ω (m).
@@ -111,6 +113,7 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
     airmat.errors.ConvergenceError
         When the relaxation diverges (or, with ``strict``, does not converge).
     """
+    target = Target.from_mesh(target)
     check_scale(target, mattress)
     timings = {}
     t = time.perf_counter()

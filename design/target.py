@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
+from airmat.geometry.topology import face_edges
 from airmat.units import SCAN_UNITS
 
 __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
@@ -72,6 +73,39 @@ class Target:
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "faces", f.astype(np.int64))
 
+    @classmethod
+    def from_mesh(cls, mesh, *, name: str | None = None) -> "Target":
+        """The target of any mesh object with ``vertices`` (m) and ``faces`` (and optionally ``name``).
+
+        E.g. an analytic surface of :mod:`data_synthetic.targets` or a ``trimesh.Trimesh`` in metres.
+        A Target is returned as it is (unless ``name`` renames it).
+
+        Parameters
+        ----------
+        mesh : object
+            With ``vertices`` of shape (n, 3) (m) and ``faces`` of shape (m, 3).
+        name : str, optional
+            Default: ``mesh.name``, else ``"target"``.
+
+        Raises
+        ------
+        airmat.errors.InputError
+            When ``mesh`` has no vertices or faces, or they are not a valid mesh.
+
+        Examples
+        --------
+        >>> from types import SimpleNamespace
+        >>> t = Target.from_mesh(SimpleNamespace(vertices=np.eye(3), faces=[[0, 1, 2]], name="tri"))
+        >>> t.name, t.faces.dtype
+        ('tri', dtype('int64'))
+        """
+        if isinstance(mesh, cls) and name is None:
+            return mesh
+        if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+            raise InputError(f"a target needs vertices and faces, got a {type(mesh).__name__}")
+        return cls(mesh.vertices, mesh.faces, name=name or getattr(mesh, "name", None) or "target",
+                   units=getattr(mesh, "units", "m") if isinstance(mesh, cls) else "m")
+
     @property
     def bbox_diagonal(self) -> float:
         """Length (m) of the axis-aligned bounding box diagonal."""
@@ -103,8 +137,7 @@ def _check_mesh(v: np.ndarray, f: np.ndarray) -> None:
     if bad.any():
         raise InputError(f"{int(bad.sum())} of {len(v)} vertices have NaN or infinite coordinates "
                          f"(first: vertex {int(np.flatnonzero(bad)[0])})", n_bad=int(bad.sum()))
-    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    _, counts = np.unique(face_edges(f), axis=0, return_counts=True)
     n_nm = int((counts > 2).sum())
     if n_nm:
         raise InputError(f"mesh has {n_nm} non-manifold edges (shared by more than two faces); "

@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from airmat.geometry.topology import boundary_vertices, cotangent_umbrella
+
 __all__ = ["Springs", "Model", "spring_profile", "spring_terms", "volume_terms", "smoothing_matrix",
            "energy", "energy_and_gradient", "hessian_blocks", "pressure_forces"]
 
@@ -249,14 +251,9 @@ def smoothing_matrix(uv_grid: np.ndarray, grid_faces: np.ndarray, top: np.ndarra
     scipy.sparse.csr_matrix of shape (n, n)
         Constant Hessian (per coordinate) of U_B5 (N/m).
     """
-    import igl
-
     g = len(top)
-    cot = sp.csr_matrix(igl.cotmatrix(np.column_stack([uv_grid, np.zeros(g)]), grid_faces))
-    boundary = np.unique(igl.boundary_facets(grid_faces)[0])
-    interior = np.setdiff1d(np.arange(g), boundary)
-    lap = sp.diags(-1.0 / cot.diagonal()) @ cot                  # rows: x_i - weighted average
-    lap = lap[interior]
+    interior = np.setdiff1d(np.arange(g), boundary_vertices(grid_faces))
+    lap = cotangent_umbrella(uv_grid, grid_faces)[interior]      # rows: x_i - weighted average
     both = np.concatenate([top, bottom])
     rows = sp.block_diag([lap, lap], format="csr")
     a = rows @ sp.coo_matrix((np.ones(2 * g), (np.arange(2 * g), both)), shape=(2 * g, n_vertices)).tocsr()
@@ -268,14 +265,6 @@ def energy(model: Model, x: np.ndarray) -> float:
     e = sum(spring_terms(x, s, gradient=False)[0] for s in model.springs)
     e -= model.pressure * volume_terms(x, model.faces, gradient=False)[0]
     return e + 0.5 * float(np.einsum("ij,ij->", x, model.smoothing @ x))
-
-
-def energy_terms(model: Model, x: np.ndarray) -> dict:
-    """Each term of U_B (J) by name: B1, B2 (-p Vol), B3, B4, B5."""
-    out = {s.name: spring_terms(x, s, gradient=False)[0] for s in model.springs}
-    out["B2"] = -model.pressure * volume_terms(x, model.faces, gradient=False)[0]
-    out["B5"] = 0.5 * float(np.einsum("ij,ij->", x, model.smoothing @ x))
-    return out
 
 
 def energy_and_gradient(model: Model, x: np.ndarray) -> tuple:

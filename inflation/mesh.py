@@ -7,20 +7,23 @@ into four triangles around a vertex at its centre (z = 0). ``top[g]`` and
 ``bottom[g]`` are the two copies of grid point ``g`` and share its Ω
 coordinates ``uv[top[g]]``; the side-wall vertices come last.
 
-The grid has an even number of cells along each side and its diagonals
-follow the "union jack" pattern (each points toward the centre of Ω), so the
-mesh is exactly symmetric under both mirrors of the rectangle: a symmetric
-string pattern then gives a symmetric inflated shape.
+The grid (:mod:`airmat.geometry.grid`, Ω's grid) has an even number of
+cells along each side and its diagonals follow the "union jack" pattern
+(each points toward the centre of Ω), so the mesh is exactly symmetric under
+both mirrors of the rectangle: a symmetric string pattern then gives a
+symmetric inflated shape. (The designer's Ω mesh alternates its diagonals
+instead: see that module.)
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import igl
 import numpy as np
 
 from airmat.errors import InputError
+from airmat.geometry.grid import boundary_loop, cell_count, rectangle_grid
+from airmat.geometry.topology import mesh_edges
 
 __all__ = ["MattressMesh", "build_mattress_mesh", "grid_shape", "MAX_VERTICES"]
 
@@ -81,31 +84,7 @@ class MattressMesh:
 
 def grid_shape(width: float, height: float, resolution: float) -> tuple:
     """Grid points (nx, ny) for a target edge length: an even cell count per side, spacing <= resolution."""
-    cells = [max(2, 2 * int(np.ceil(s / (2.0 * resolution) - 1e-9))) for s in (width, height)]
-    return cells[0] + 1, cells[1] + 1
-
-
-def _grid_triangles(nx: int, ny: int) -> np.ndarray:
-    """Union-jack triangulation of an nx × ny grid (CCW in uv)."""
-    i, j = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="xy")
-    i, j = i.ravel(), j.ravel()
-    p00, p10, p01, p11 = j * nx + i, j * nx + i + 1, (j + 1) * nx + i, (j + 1) * nx + i + 1
-    # the diagonal of each cell points toward the centre of Ω
-    s = np.sign(i + 0.5 - (nx - 1) / 2.0) * np.sign(j + 0.5 - (ny - 1) / 2.0)
-    main = s > 0
-    t1 = np.where(main[:, None], np.c_[p00, p10, p11], np.c_[p00, p10, p01])
-    t2 = np.where(main[:, None], np.c_[p00, p11, p01], np.c_[p10, p11, p01])
-    return np.concatenate([t1, t2])
-
-
-def _boundary_loop(nx: int, ny: int) -> np.ndarray:
-    """Grid indices of the boundary, counter-clockwise seen from above, without repetition."""
-    ii = np.arange(nx)
-    jj = np.arange(ny)
-    return np.concatenate([ii[:-1],                      # v = 0, u increasing
-                           jj[:-1] * nx + nx - 1,        # u = W, v increasing
-                           (ny - 1) * nx + ii[::-1][:-1],  # v = H, u decreasing
-                           jj[::-1][:-1] * nx])          # u = 0, v decreasing
+    return cell_count(width, resolution, even=True) + 1, cell_count(height, resolution, even=True) + 1
 
 
 def build_mattress_mesh(width: float, height: float, thickness: float, *,
@@ -152,13 +131,11 @@ def build_mattress_mesh(width: float, height: float, thickness: float, *,
                          f"(memory of the sparse solver); use a coarser resolution",
                          n_vertices=n_est, limit=max_vertices)
     ng = nx * ny
-    u, v = np.meshgrid(np.linspace(0.0, width, nx), np.linspace(0.0, height, ny), indexing="xy")
-    uv_grid = np.column_stack([u.ravel(), v.ravel()])
+    uv_grid, tri = rectangle_grid(width, height, nx, ny, diagonals="union_jack")
     top, bottom = np.arange(ng), ng + np.arange(ng)
     vertices = np.concatenate([np.column_stack([uv_grid, np.full(ng, thickness / 2)]),
                                np.column_stack([uv_grid, np.full(ng, -thickness / 2)])])
-    tri = _grid_triangles(nx, ny)
-    loop = _boundary_loop(nx, ny)
+    loop = boundary_loop(nx, ny)
     p, q = loop, np.roll(loop, -1)
     # each side-wall quad gets a vertex at its centre and four triangles: the band is then
     # symmetric under both mirrors of Ω and under top <-> bottom, like the faces
@@ -170,8 +147,8 @@ def build_mattress_mesh(width: float, height: float, thickness: float, *,
     faces = np.concatenate([top[tri], bottom[tri][:, ::-1], side]).astype(np.int64)
     return MattressMesh(width=float(width), height=float(height), thickness=float(thickness),
                         vertices=vertices, faces=faces, uv=np.concatenate([uv_grid, uv_grid, uv_side]),
-                        top=top, bottom=bottom, grid_shape=(nx, ny), grid_faces=tri.astype(np.int64),
-                        edges=np.asarray(igl.edges(faces), dtype=np.int64))
+                        top=top, bottom=bottom, grid_shape=(nx, ny), grid_faces=tri,
+                        edges=mesh_edges(faces, by_second=True))
 
 
 def locate(mesh: MattressMesh, uv) -> tuple:

@@ -51,10 +51,6 @@ class StringSet:
     def __len__(self) -> int:
         return len(self.a)
 
-    def with_rest(self, rest) -> "StringSet":
-        """The same strings with other rest lengths (m)."""
-        return StringSet(self.a, self.b, self.top, np.asarray(rest, float), self.ids)
-
     def _id(self, i: int) -> str:
         return self.ids[i] if i < len(self.ids) else f"#{i}"
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import re
 
+from airmat.constants import PAPER_D
 from airmat.errors import InputError
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*[xX×*]\s*(\d+(?:\.\d*)?)\s*$")
@@ -76,7 +77,7 @@ def _mattress_and_target(args):
         return Mattress(width, height, thickness), lambda: target
     if size is None:
         raise InputError("--mattress WxH (mm) is required with a TARGET file, e.g. --mattress 830x740")
-    thickness = 0.07 if args.thickness_mm is None else args.thickness_mm * 1e-3
+    thickness = PAPER_D if args.thickness_mm is None else args.thickness_mm * 1e-3
     mattress = Mattress(size[0], size[1], thickness)
     return mattress, lambda: load_target(args.target, units=args.units, mattress=mattress)
 

@@ -44,7 +44,7 @@ def _fmt(x: float) -> str:
     return f"{x:.2f}"
 
 
-def _text(parent, x, y, s, size, anchor="start", weight=None):
+def _text(parent, x, y, s, size, *, anchor="start", weight=None):
     el = ET.SubElement(parent, "text", {"x": _fmt(x), "y": _fmt(y), "font-size": _fmt(size),
                                         "font-family": "sans-serif", "text-anchor": anchor})
     if weight:
@@ -62,7 +62,7 @@ def _face(svg, doc, face):
                               "fill": "none", "stroke": "black", "stroke-width": "0.5"})
     ox, oy = svg_transform(face, 0.0, 0.0, W, H)
     ET.SubElement(g, "circle", {"cx": _fmt(ox), "cy": _fmt(oy), "r": "3", "fill": "black"})
-    _text(g, ox, oy + 12, "origin u=0, v=0", LAYOUT["font"], "middle")
+    _text(g, ox, oy + 12, "origin u=0, v=0", LAYOUT["font"], anchor="middle")
     label = "TOP face, seen from above" if face == "top" else "BOTTOM face, seen from below (mirrored)"
     _text(g, min(x0, x1), y0 - 4, label, LAYOUT["font"] * 1.25, weight="bold")
     for dash in doc["dashes"]:
@@ -78,7 +78,7 @@ def _face(svg, doc, face):
         for x, y in (pts[0], pts[-1]):
             ET.SubElement(dg, "circle", {"cx": _fmt(x), "cy": _fmt(y), "r": "2.5", "fill": colour})
         mx, my = pts[len(pts) // 2]
-        _text(dg, mx, my - 3, dash["id"], LAYOUT["font"], "middle")
+        _text(dg, mx, my - 3, dash["id"], LAYOUT["font"], anchor="middle")
 
 
 def write_svg(path, doc: dict) -> None:

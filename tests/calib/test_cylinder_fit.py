@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 from airmat.errors import InputError, NotACylinderError
 from calib.cylinder_fit import fit_cylinder
 from calib.cylinder_irls import polish
-from calib.cylinder_lsq import CylinderFrame, _Problem, residuals
+from calib.cylinder_lsq import CylinderFrame, CylinderProblem, residuals
 from calib.groove_bands import groove_bands
 from calib.support_plane import find_support_planes
 from data_synthetic.specimen_scan import FLOOR, SPECIMEN, specimen_scan
@@ -175,7 +175,7 @@ def test_analytic_jacobian_matches_finite_differences(kappa):
     pts = rng.normal(size=(200, 3)) * 0.3
     frame = CylinderFrame(origin=np.array([0.1, 0.2, 0.3]), normal=np.array([0.0, 0.0, 1.0]),
                           axis=np.array([0.0, 1.0, 0.0]), kappa=kappa)
-    prob = _Problem(pts, frame, 0.7)
+    prob = CylinderProblem(pts, frame, 0.7)
     for x in (prob.x0(), prob.x0() + np.array([0.3, -0.2, 0.5, 0.1, 0.4])):
         np.testing.assert_allclose(prob.jac(x), approx_derivative(prob.fun, x, method="3-point"),
                                    atol=1e-7)

@@ -19,7 +19,7 @@ def cylinder_obj(tmp_path_factory):
     """A developable target (cylinder R 400 mm) as an OBJ file in mm."""
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.03)
     path = tmp_path_factory.mktemp("targets") / "cyl.obj"
-    mesh = trimesh.Trimesh(surf.target.vertices * 1e3, surf.target.faces, process=False)
+    mesh = trimesh.Trimesh(surf.vertices * 1e3, surf.faces, process=False)
     path.write_text(trimesh.exchange.obj.export_obj(mesh, include_normals=False, include_texture=False))
     return path
 
@@ -108,7 +108,7 @@ def test_bad_meshes_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, nam
 def test_units_slip_is_refused(tmp_path, capsys):
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
     path = tmp_path / "metres.stl"
-    trimesh.Trimesh(surf.target.vertices, surf.target.faces).export(path)  # metres, read as mm
+    trimesh.Trimesh(surf.vertices, surf.faces).export(path)  # metres, read as mm
     _check_refused(tmp_path, capsys, ["design", str(path), "--mattress", "830x740"], "smaller")
 
 

@@ -20,7 +20,7 @@ def _angle_deg(a, b):
 
 
 def _errors(surf):
-    v, f = surf.target.vertices, surf.target.faces
+    v, f = surf.vertices, surf.faces
     pc = principal_curvature(v, f)
     k_exact, d_exact = surf.curvature(v)
     rim = rim_vertices(f, len(v))
@@ -35,7 +35,7 @@ def test_sphere_both_families_one_over_r():
     assert err[~rim].max() < 0.01 and err[rim].max() < 0.02
     # outward (up) normals: the sphere bends away from them, so κ > 0
     assert (pc.kappa > 0).all()
-    assert np.allclose(pc.normal[np.argmin(np.linalg.norm(surf.target.vertices, axis=1))], [0, 0, 1], atol=1e-3)
+    assert np.allclose(pc.normal[np.argmin(np.linalg.norm(surf.vertices, axis=1))], [0, 0, 1], atol=1e-3)
 
 
 def test_cylinder_values_and_directions():
@@ -67,7 +67,7 @@ def test_saddle_signs_values_and_directions():
     # compare as sorted pairs: where |κ1| ≈ |κ2| the labels may swap
     err = np.abs(np.sort(pc.kappa, axis=1) - np.sort(k, axis=1))
     assert err[~rim].max() < 0.02 and err[rim].max() < 0.06
-    centre = np.argmin(np.linalg.norm(surf.target.vertices[:, :2], axis=1))
+    centre = np.argmin(np.linalg.norm(surf.vertices[:, :2], axis=1))
     # bends toward the up normal along x (κ = -1/a), away from it along y (+1/b)
     assert pc.kappa[centre] == pytest.approx([-2.0, 1.0], abs=0.01)
     assert _angle_deg(pc.directions[centre, 0], np.array([1.0, 0, 0])) < 0.5
@@ -77,7 +77,7 @@ def test_saddle_signs_values_and_directions():
 
 def test_sign_follows_the_reference_normal():
     surf = sphere_cap(0.5, extent=0.6, spacing=0.03)
-    v, f = surf.target.vertices, surf.target.faces
+    v, f = surf.vertices, surf.faces
     up = principal_curvature(v, f).kappa
     assert np.allclose(principal_curvature(v, f[:, ::-1]).kappa, -up)
     assert np.allclose(principal_curvature(v, f, top_normal_sign=-1).kappa, -up)
@@ -86,14 +86,14 @@ def test_sign_follows_the_reference_normal():
 @pytest.mark.parametrize("scale", [0.1, 3.0])
 def test_curvature_scales_inversely_with_size(scale):
     surf = saddle(0.5, 1.0, extent=(0.6, 0.6), spacing=0.03)
-    v, f = surf.target.vertices, surf.target.faces
+    v, f = surf.vertices, surf.faces
     k = principal_curvature(v, f).kappa
     assert np.allclose(principal_curvature(v * scale, f).kappa, k / scale, rtol=1e-8, atol=1e-9 / scale)
 
 
 def test_rigid_motion_invariance():
     surf = cone(0.3, 0.25, length=0.6, arc=0.5, spacing=0.03)
-    v, f = surf.target.vertices, surf.target.faces
+    v, f = surf.vertices, surf.faces
     pc = principal_curvature(v, f)
     rot, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(3, 3)))
     rot *= np.sign(np.linalg.det(rot))
@@ -122,7 +122,7 @@ def test_rim_better_than_libigl_on_a_relaxed_surface():
     from design.surface import approximate_surface
 
     surf = cone(0.3, 0.2, length=0.9, arc=0.8, spacing=0.01)
-    a = approximate_surface(surf.target, Mattress(0.6, 0.5), spacing=0.02, progress=False)
+    a = approximate_surface(surf, Mattress(0.6, 0.5), spacing=0.02, progress=False)
     k_exact, _ = surf.curvature(a.xyz)
     rim = rim_vertices(a.faces, len(a.xyz))
     ours = np.abs(a.curvature.kappa[:, 0] - k_exact[:, 0])

@@ -33,13 +33,13 @@ def _dash_points_on_S(result, string, n=10):
 @pytest.fixture(scope="module")
 def cyl():
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.02)
-    return surf, design(surf.target, MATTRESS, calibration=POINT, params=PARAMS, progress=False)
+    return surf, design(surf, MATTRESS, calibration=POINT, params=PARAMS, progress=False)
 
 
 @pytest.fixture(scope="module")
 def con():
     surf = cone(r_crown=0.35, half_angle=0.2, length=1.2, arc=1.0, spacing=0.02)
-    return surf, design(surf.target, MATTRESS, calibration=POINT, params=PARAMS, progress=False)
+    return surf, design(surf, MATTRESS, calibration=POINT, params=PARAMS, progress=False)
 
 
 def test_cylinder_is_developable_and_needs_only_k1_strings(cyl):
@@ -82,9 +82,9 @@ def test_cone_strings_follow_the_local_curvature(con):
 def test_impossible_parameters_fail_before_any_work():
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
     with pytest.raises(InputError, match="mu1"):
-        design(surf.target, MATTRESS, params=DesignParams(mu1=0.2), progress=False)
+        design(surf, MATTRESS, params=DesignParams(mu1=0.2), progress=False)
     with pytest.raises(InputError, match="longer than the mattress"):
-        design(surf.target, Mattress(0.32, 0.25), params=DesignParams(), progress=False)
+        design(surf, Mattress(0.32, 0.25), params=DesignParams(), progress=False)
 
 
 def test_write_design_writes_every_file(cyl, tmp_path):

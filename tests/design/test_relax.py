@@ -13,6 +13,7 @@ from design.constructibility import edge_sigma
 from design.mattress import Mattress, triangulate_mattress
 from design.placement import auto_placement, placement_matrix
 from design.relax import relax_to_target, umbrella_operator
+from design.target import Target
 
 R = 0.3
 MATTRESS = Mattress(0.5, 0.4)
@@ -21,7 +22,7 @@ MATTRESS = Mattress(0.5, 0.4)
 @pytest.fixture(scope="module")
 def cyl():
     """A cylinder of radius 0.3 m along x: developable, so Ŝ can lie on it unstrained."""
-    return cylinder(R, length=0.8, arc=0.75, spacing=0.01)
+    return Target.from_mesh(cylinder(R, length=0.8, arc=0.75, spacing=0.01))
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +32,7 @@ def mesh():
 
 @pytest.fixture(scope="module")
 def relaxed(cyl, mesh):
-    return relax_to_target(*mesh, cyl.target, progress=False)
+    return relax_to_target(*mesh, cyl, progress=False)
 
 
 def _radius(xyz):
@@ -61,13 +62,13 @@ def test_auto_placement_centres_the_long_side_on_the_axis(relaxed, cyl):
 
 
 def test_top_normal_follows_target_orientation(cyl):
-    flipped = type(cyl.target)(cyl.target.vertices, cyl.target.faces[:, ::-1])
+    flipped = Target(cyl.vertices, cyl.faces[:, ::-1])
     mat = auto_placement(flipped, 0.5, 0.4)
     assert np.allclose(mat[:3, 2], [0, 0, -1], atol=1e-6)
 
 
 def test_deterministic(cyl, mesh, relaxed):
-    again = relax_to_target(*mesh, cyl.target, progress=False)
+    again = relax_to_target(*mesh, cyl, progress=False)
     assert np.array_equal(again.xyz, relaxed.xyz)
     assert again.n_iter == relaxed.n_iter
 
@@ -75,7 +76,7 @@ def test_deterministic(cyl, mesh, relaxed):
 def test_placement_option_moves_the_sheet(cyl, mesh):
     # start 0.1 m further along the axis, rotated 90 degrees: long side across the arc
     rot = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
-    res = relax_to_target(*mesh, cyl.target, placement=([0.1, 0.0, 0.0], rot), progress=False)
+    res = relax_to_target(*mesh, cyl, placement=([0.1, 0.0, 0.0], rot), progress=False)
     assert res.converged
     uv, _ = mesh
     assert res.xyz[:, 0].mean() == pytest.approx(0.1, abs=2e-3)
@@ -86,7 +87,7 @@ def test_placement_option_moves_the_sheet(cyl, mesh):
     assert np.ptp(rim_v0[:, 0]) < 2e-3 and np.ptp(rim_v0[:, 1]) > 0.4
     assert np.abs(_radius(res.xyz) - R).max() < 3e-4
     as_matrix = placement_matrix(([0.1, 0.0, 0.0], rot), 0.5, 0.4)
-    same = relax_to_target(*mesh, cyl.target, placement=as_matrix, progress=False)
+    same = relax_to_target(*mesh, cyl, placement=as_matrix, progress=False)
     assert np.array_equal(same.xyz, res.xyz)
 
 
@@ -99,11 +100,11 @@ def test_placement_must_be_rigid(bad):
 
 def test_unconverged_is_reported_and_strict_raises(cyl, mesh, caplog):
     with caplog.at_level(logging.WARNING, logger="design.relax"):
-        res = relax_to_target(*mesh, cyl.target, max_iter=3, levels=0, progress=False)
+        res = relax_to_target(*mesh, cyl, max_iter=3, levels=0, progress=False)
     assert not res.converged and res.n_iter == 3 and "not converged" in res.message
     assert any("not converged" in r.message for r in caplog.records)
     with pytest.raises(ConvergenceError) as err:
-        relax_to_target(*mesh, cyl.target, max_iter=3, levels=0, progress=False, strict=True)
+        relax_to_target(*mesh, cyl, max_iter=3, levels=0, progress=False, strict=True)
     assert err.value.data["n_iter"] == 3
 
 
@@ -117,7 +118,7 @@ def test_divergence_raises(cyl, mesh, monkeypatch):
 
     monkeypatch.setattr(MeshProjector, "closest", broken)
     with pytest.raises(ConvergenceError, match="diverged"):
-        relax_to_target(*mesh, cyl.target, levels=0, progress=False)
+        relax_to_target(*mesh, cyl, levels=0, progress=False)
 
 
 def test_umbrella_vanishes_on_flat_mattress(mesh):
@@ -132,8 +133,8 @@ def test_mesh_spacing_does_not_change_the_result(cyl):
     """k_A2, k_A3 are scaled with the spacing: 25 and 12.5 mm meshes give the same Ŝ."""
     coarse = triangulate_mattress(MATTRESS, spacing=0.025)
     fine = triangulate_mattress(MATTRESS, spacing=0.0125)
-    a = relax_to_target(*coarse, cyl.target, progress=False)
-    b = relax_to_target(*fine, cyl.target, progress=False)
+    a = relax_to_target(*coarse, cyl, progress=False)
+    b = relax_to_target(*fine, cyl, progress=False)
     # compare the positions of the coarse vertices (they are fine vertices too)
     dist, idx = cKDTree(fine[0]).query(coarse[0])
     assert dist.max() < 1e-12

@@ -25,7 +25,7 @@ M = Mattress(0.6, 0.5)
 @pytest.fixture(scope="module")
 def cyl_design():
     surf = cylinder(0.3, length=0.9, arc=0.8, spacing=0.01)
-    approx = approximate_surface(surf.target, M, spacing=0.025, progress=False)
+    approx = approximate_surface(surf, M, spacing=0.025, progress=False)
     return surf, approx, mattress_field(approx)
 
 
@@ -54,7 +54,7 @@ def test_cylinder_field_on_omega(cyl_design):
 
 def test_cone_curvature_at_corresponding_points():
     surf = cone(0.3, 0.2, length=0.9, arc=0.8, spacing=0.01)
-    a = approximate_surface(surf.target, M, spacing=0.025, progress=False)
+    a = approximate_surface(surf, M, spacing=0.025, progress=False)
     assert a.relax.converged
     assert abs(a.report.sigma["min"] - 1) < 2e-3 and abs(a.report.sigma["max"] - 1) < 2e-3
     k_exact, _ = surf.curvature(a.xyz)
@@ -66,7 +66,7 @@ def test_cone_curvature_at_corresponding_points():
 
 def test_sphere_cap_both_families_one_over_r():
     surf = sphere_cap(1.0, extent=0.9, spacing=0.01)
-    a = approximate_surface(surf.target, M, spacing=0.025, progress=False)
+    a = approximate_surface(surf, M, spacing=0.025, progress=False)
     field = mattress_field(a)
     rim = rim_vertices(a.faces, len(a.uv))
     assert np.abs(a.curvature.kappa - 1.0)[~rim].max() < 0.02
@@ -78,14 +78,14 @@ def test_sphere_cap_both_families_one_over_r():
 
 def test_deterministic(cyl_design):
     surf, a, field = cyl_design
-    b = approximate_surface(surf.target, M, spacing=0.025, progress=False)
+    b = approximate_surface(surf, M, spacing=0.025, progress=False)
     assert np.array_equal(a.xyz, b.xyz)
     assert np.array_equal(mattress_field(b).direction, field.direction)
 
 
 def test_units_slip_is_refused(cyl_design):
     surf = cyl_design[0]
-    in_mm = Target(surf.target.vertices * 1e3, surf.target.faces)    # mm numbers taken as metres
+    in_mm = Target(surf.vertices * 1e3, surf.faces)    # mm numbers taken as metres
     with pytest.raises(InputError, match="looks like the file is in mm, not m"):
         approximate_surface(in_mm, M, progress=False)
 

@@ -1,0 +1,112 @@
+"""Topology of a triangle mesh: its edges, its boundary, and the cotangent Laplacian of a flat mesh.
+
+The designer's U_A3 umbrella term (:func:`design.relax.umbrella_operator`) and
+the simulator's U_B5 smoothing (:func:`inflation.energy.smoothing_matrix`)
+are both built from these. Positions in metres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["face_edges", "mesh_edges", "boundary_edge_mask", "boundary_vertex_mask", "boundary_vertices",
+           "cotangent_matrix", "cotangent_umbrella"]
+
+
+def face_edges(faces: np.ndarray) -> np.ndarray:
+    """The three edges of every face, (3 m, 2), each row sorted: edges 01 of all faces, then 12, then 20."""
+    f = np.asarray(faces)
+    return np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+
+
+def mesh_edges(faces: np.ndarray, *, by_second: bool = False) -> np.ndarray:
+    """Unique undirected edges (e, 2) of a triangle mesh, each row sorted (i < j).
+
+    Parameters
+    ----------
+    faces : ndarray of shape (m, 3)
+    by_second : bool, default False
+        Order the rows by (j, i) instead of (i, j): libigl's ``edges`` order,
+        which the simulator's spring order (and so its round-off) follows.
+
+    Examples
+    --------
+    >>> mesh_edges(np.array([[0, 1, 2], [0, 2, 3]])).tolist()
+    [[0, 1], [0, 2], [0, 3], [1, 2], [2, 3]]
+    >>> mesh_edges(np.array([[0, 1, 2], [0, 2, 3]]), by_second=True).tolist()
+    [[0, 1], [0, 2], [1, 2], [0, 3], [2, 3]]
+    """
+    e = np.unique(face_edges(faces), axis=0)
+    return e[np.lexsort((e[:, 0], e[:, 1]))] if by_second else e
+
+
+def boundary_edge_mask(faces: np.ndarray) -> np.ndarray:
+    """Which rows of :func:`mesh_edges` lie on the boundary (one face only), shape (e,).
+
+    Examples
+    --------
+    >>> boundary_edge_mask(np.array([[0, 1, 2], [0, 2, 3]])).tolist()
+    [True, False, True, True, True]
+    """
+    _, counts = np.unique(face_edges(faces), axis=0, return_counts=True)
+    return counts == 1
+
+
+def boundary_vertex_mask(faces: np.ndarray, n: int) -> np.ndarray:
+    """Boolean mask (n,) of the vertices on a boundary edge (n: the number of vertices)."""
+    rim = np.zeros(n, bool)
+    rim[mesh_edges(faces)[boundary_edge_mask(faces)].ravel()] = True
+    return rim
+
+
+def boundary_vertices(faces: np.ndarray) -> np.ndarray:
+    """Sorted indices of the vertices on a boundary edge.
+
+    Examples
+    --------
+    >>> boundary_vertices(np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1]])).tolist()
+    [1, 2, 3]
+    """
+    return np.unique(mesh_edges(faces)[boundary_edge_mask(faces)])
+
+
+def cotangent_matrix(uv: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:
+    """The cotangent Laplacian C (n, n) of a flat mesh (libigl's ``cotmatrix``; 1/2 cot weights).
+
+    ``C[i, j] = (cot α_ij + cot β_ij) / 2`` for an edge ij (α, β the angles
+    opposite it), ``C[i, i] = -Σ_j C[i, j]``; ``C @ uv`` vanishes on interior
+    vertices (linear precision).
+
+    Parameters
+    ----------
+    uv : ndarray of shape (n, 2)
+        Flat positions (m).
+    faces : ndarray of shape (m, 3)
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix of shape (n, n)
+        Dimensionless.
+    """
+    import igl
+
+    uv = np.asarray(uv, dtype=float)
+    return sp.csr_matrix(igl.cotmatrix(np.column_stack([uv, np.zeros(len(uv))]), faces))
+
+
+def cotangent_umbrella(uv: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:
+    """The umbrella operator U (n, n) with ``(U x)_i = x_i − Σ_j w_ij x_j / Σ_j w_ij``, w the cotangent weights.
+
+    Built as ``-diag(C)⁻¹ C`` from :func:`cotangent_matrix`, so on the flat mesh
+    ``U @ uv`` is 0 at every interior vertex (rows of boundary vertices are
+    one-sided: callers keep the rows they need).
+
+    Parameters
+    ----------
+    uv : ndarray of shape (n, 2)
+        Flat positions (m).
+    faces : ndarray of shape (m, 3)
+    """
+    cot = cotangent_matrix(uv, faces)
+    return sp.diags(-1.0 / cot.diagonal()) @ cot
