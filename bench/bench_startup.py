@@ -95,7 +95,7 @@ def top_imports(tree: Path, code: str, k: int) -> list[tuple[str, float]]:
         if top in FIRST_PARTY or top in sys.stdlib_module_names or top.startswith("_"):
             continue
         best[top] = max(best.get(top, 0.0), int(m.group(2)) / 1e3)
-    return sorted(best.items(), key=lambda kv: -kv[1])[:k]
+    return sorted(((n, ms) for n, ms in best.items() if ms >= 1.0), key=lambda kv: -kv[1])[:k]  # 0 ms: probes
 
 
 def checkout(commit: str, where: Path) -> Path:
