@@ -2,9 +2,12 @@
 
 The numerical library lives in the top-level packages ``calib`` (Equation 3,
 scan fitting, posterior), ``design`` (near-developable surface, stripes,
-string lengths, inflation check) and ``data_synthetic`` (ground truth).
-This package holds what they share: the error hierarchy, atomic output,
-progress bars, unit conversions and the ``airmat`` command line.
+string lengths, exports), ``inflation`` (the U_B simulator), ``check`` (an
+inflation against Ŝ) and ``data_synthetic`` (ground truth). This package
+holds what they share: the error hierarchy, atomic output, progress bars,
+unit conversions, lazy package exports (``airmat.lazy``), figures without
+pyplot (``airmat.figures``) and the ``airmat`` command line. It imports
+nothing heavy itself: every package imports it first.
 """
 
 import os as _os

@@ -9,25 +9,23 @@ Public API (SI units: metres, 1/m):
 - :func:`sample_posterior` -- emcee posterior of Delta, d and the scatter sigma (``calib.posterior``).
 - :func:`kappa_curve` -- calibrated kappa_1(l/L) with 68/95% bands (``calib.curve``).
 - :func:`calibrate` -- manifest -> scans -> fits -> posterior -> curve (``calib.calibrate``).
-- :func:`write_calibration`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.calibration_io``, ``calib.plots``).
+- :func:`write_calibration`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.calibration_io``, ``calib.plots``);
+  :func:`read_calibration` -- the same Calibration from its folder;
+  :func:`curve_figure`, :func:`corner_figure` -- the same figures as ``matplotlib.figure.Figure``.
 """
 
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
+from airmat.lazy import attach
 
-from calib.model import bend_angle, flat_length, kappa1, kappa_max, string_length
-from calib.scan_io import Scan, read_scan
-from calib.cylinder_fit import CylinderFit, fit_cylinder
-from calib.manifest import Manifest, read_manifest
-from calib.posterior import DEFAULT_PRIORS, Posterior, Priors, sample_posterior, specimen_data
-from calib.curve import KappaCurve, kappa_curve
-from calib.calibrate import Calibration, SpecimenFit, calibrate
-from calib.calibration_io import write_calibration
-from calib.plots import plot_corner, plot_curve
-
-__all__ = [
-    "bend_angle", "flat_length", "kappa1", "kappa_max", "string_length",
-    "Scan", "read_scan", "CylinderFit", "fit_cylinder",
-    "Manifest", "read_manifest", "DEFAULT_PRIORS", "Posterior", "Priors", "sample_posterior",
-    "specimen_data", "KappaCurve", "kappa_curve", "Calibration", "SpecimenFit", "calibrate",
-    "write_calibration", "plot_corner", "plot_curve",
-]
+# public name -> its submodule, imported on first use (``airmat.lazy``): ``airmat fit`` loads no emcee or plots
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "model": ["bend_angle", "flat_length", "kappa1", "kappa_max", "string_length"],
+    "scan_io": ["Scan", "read_scan"],
+    "cylinder_fit": ["CylinderFit", "fit_cylinder"],
+    "manifest": ["Manifest", "read_manifest"],
+    "posterior": ["DEFAULT_PRIORS", "Posterior", "Priors", "sample_posterior", "specimen_data"],
+    "curve": ["KappaCurve", "kappa_curve"],
+    "calibrate": ["Calibration", "SpecimenFit", "calibrate"],
+    "calibration_io": ["write_calibration", "read_calibration"],
+    "plots": ["plot_corner", "plot_curve", "curve_figure", "corner_figure"],
+})

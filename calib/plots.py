@@ -1,8 +1,9 @@
 """Calibration figures: the kappa_1(l / L) curve with bands, and the corner plot.
 
-Figures are drawn on ``matplotlib.figure.Figure`` objects with the Agg
-canvas, never through pyplot's global state, so they work headless and
-in threads.
+:func:`curve_figure` and :func:`corner_figure` return a
+``matplotlib.figure.Figure`` (a notebook shows it); :func:`plot_curve` and
+:func:`plot_corner` write them as PNG files. No pyplot state
+(:mod:`airmat.figures`), so they work headless and in threads.
 """
 
 from __future__ import annotations
@@ -11,20 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_curve", "plot_corner"]
+from airmat.figures import new_figure, save_png
+
+__all__ = ["curve_figure", "corner_figure", "plot_curve", "plot_corner"]
 
 
-def _figure(figsize):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def plot_curve(cal, path, *, truth: dict | None = None) -> Path:
-    """curve.png: measured kappa (with 2-sigma error bars) against l / L, and the calibrated curve.
+def curve_figure(cal, *, truth: dict | None = None):
+    """The calibration curve: measured kappa (with 2-sigma error bars) against l / L, and the fit.
 
     Like the paper's Figure 3: posterior median of kappa_1 and its 68% / 95%
     bands for the most common L; measured curvatures of the specimens with
@@ -33,15 +27,17 @@ def plot_curve(cal, path, *, truth: dict | None = None) -> Path:
     Parameters
     ----------
     cal : calib.calibrate.Calibration
-    path : path
-        PNG file to write.
     truth : dict, optional
         ``{"delta_mm", "d_mm"}``: the true curve is drawn dashed.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     from calib.model import kappa1
 
     c, p = cal.curve, cal.posterior
-    fig = _figure((6.4, 4.4))
+    fig = new_figure((6.4, 4.4), layout="constrained")
     ax = fig.add_subplot()
     ax.fill_between(c.l_over_L, c.lo95, c.hi95, color="C0", alpha=0.18, lw=0, label="95% band")
     ax.fill_between(c.l_over_L, c.lo68, c.hi68, color="C0", alpha=0.35, lw=0, label="68% band")
@@ -63,32 +59,40 @@ def plot_curve(cal, path, *, truth: dict | None = None) -> Path:
     ax.set_ylim(bottom=min(0.0, float(np.min(y - err))))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    return path
+    return fig
 
 
-def plot_corner(posterior, path, *, truths: dict | None = None) -> Path:
-    """corner.png: 1D and 2D marginals of Delta (mm), d (mm) and sigma (1/m).
+def plot_curve(cal, path, *, truth: dict | None = None) -> Path:
+    """Write curve.png, the :func:`curve_figure` (120 dpi); return its path."""
+    return save_png(curve_figure(cal, truth=truth), path, dpi=120)
+
+
+def corner_figure(posterior, *, truths: dict | None = None):
+    """The corner plot: 1D and 2D marginals of Delta (mm), d (mm) and sigma (1/m).
 
     Parameters
     ----------
     posterior : calib.posterior.Posterior
-    path : path
-        PNG file to write.
     truths : dict, optional
         ``{"delta_mm", "d_mm", "sigma_per_m"}`` (any subset): marked on the plot.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     import corner
 
     s = posterior.samples * np.array([1e3, 1e3, 1.0])
     keys = ("delta_mm", "d_mm", "sigma_per_m")
     marks = None if truths is None else [truths.get(k) for k in keys]
-    fig = _figure((6.0, 6.0))
+    fig = new_figure((6.0, 6.0), layout="constrained")
     fig.set_layout_engine(None)
     corner.corner(s, fig=fig, labels=["Δ (mm)", "d (mm)", "σ (1/m)"], truths=marks,
                   quantiles=[0.025, 0.5, 0.975], show_titles=True, title_fmt=".3g",
                   title_kwargs={"fontsize": 9}, label_kwargs={"fontsize": 10})
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    return path
+    return fig
+
+
+def plot_corner(posterior, path, *, truths: dict | None = None) -> Path:
+    """Write corner.png, the :func:`corner_figure` (110 dpi); return its path."""
+    return save_png(corner_figure(posterior, truths=truths), path, dpi=110)

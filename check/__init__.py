@@ -10,17 +10,13 @@ Public API (SI units: metres, 1/m):
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
 """
 
-from check.compare import Deviation, deviation, realized_curvature, surface_at
-from check.inflation_check import CheckRun, DesignCheck, check, design_strings
-from check.report import write_check
+import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
+from airmat.lazy import attach
 
-__all__ = ["Deviation", "deviation", "realized_curvature", "surface_at", "CheckRun", "DesignCheck", "check",
-           "design_strings", "write_check", "validate_equation3"]
-
-
-def __getattr__(name):  # validation imports calib's cylinder fit: load it only when asked for
-    if name == "validate_equation3":
-        from check.validation import validate_equation3
-
-        return validate_equation3
-    raise AttributeError(name)
+# public name -> its submodule, imported on first use (``airmat.lazy``)
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "compare": ["Deviation", "deviation", "realized_curvature", "surface_at"],
+    "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
+    "report": ["write_check"],
+    "validation": ["validate_equation3"],
+})

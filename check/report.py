@@ -1,4 +1,8 @@
-"""Files of the inflation check: inflate.json, inflated.ply, deviation.png (mm, 1/m)."""
+"""Files of the inflation check: inflate.json, inflated.ply, deviation.png (mm, 1/m).
+
+:func:`deviation_figure` returns the figure of deviation.png as a
+``matplotlib.figure.Figure`` (no pyplot state, :mod:`airmat.figures`).
+"""
 
 from __future__ import annotations
 
@@ -6,13 +10,13 @@ import json
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from airmat import __version__
 from airmat.atomic import atomic_write_bytes, atomic_write_text
+from airmat.figures import new_figure, save_png
 from airmat.units import M_TO_MM
 
-__all__ = ["check_dict", "write_check", "summary_text"]
+__all__ = ["check_dict", "deviation_figure", "write_check", "summary_text"]
 
 
 def _run_dict(run) -> dict:
@@ -45,16 +49,22 @@ def check_dict(check) -> dict:
     return doc
 
 
-def _plot(check, path: Path) -> None:
-    import matplotlib
+def deviation_figure(check):
+    """Ŝ on Ω coloured by the deviation of the median inflation, and realized against target κ per dash.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Parameters
+    ----------
+    check : check.inflation_check.DesignCheck
 
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     d, med = check.design, check.runs["median"]
     uv, faces = d.approx.uv, d.approx.faces
     kappa = np.array([s.kappa for s in d.pattern.strings])
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [1.25, 1]})
+    fig = new_figure((13, 5.5))
+    ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1]})
     tpc = ax.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces,
                        med.deviation.per_vertex * M_TO_MM, shading="gouraud", cmap="viridis")
     fig.colorbar(tpc, ax=ax, label="deviation from Ŝ (mm)")
@@ -79,19 +89,20 @@ def _plot(check, path: Path) -> None:
                      for k, r in check.runs.items())
     fig.suptitle(f"airmat inflate: {env}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def write_check(check, folder) -> dict:
     """Write inflate.json, inflated.ply and deviation.png into ``folder``; return the JSON document."""
+    import trimesh
+
     folder = Path(folder)
     doc = check_dict(check)
     atomic_write_text(folder / "inflate.json", json.dumps(doc, indent=2) + "\n")
     inf = check.runs["median"].inflation
     mesh = trimesh.Trimesh(inf.xyz * M_TO_MM, inf.mesh.faces, process=False)
     atomic_write_bytes(folder / "inflated.ply", trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
-    _plot(check, folder / "deviation.png")
+    save_png(deviation_figure(check), folder / "deviation.png", dpi=110)
     return doc
 
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from airmat.constants import PAPER_D, PAPER_L
 from airmat.errors import NotACylinderError
+from airmat.figures import new_figure
 from calib.cylinder_fit import fit_cylinder
 from calib.model import kappa1
 from check.compare import realized_curvature, surface_at
@@ -26,7 +27,7 @@ from inflation.model import Parameters
 from inflation.simulate import inflate_many
 from inflation.strings import StringSet
 
-__all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3"]
+__all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3", "validation_figure"]
 
 log = logging.getLogger(__name__)
 
@@ -133,3 +134,37 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         points.append(ValidationPoint(float(r), float(k), float(se), k3, float(np.mean(ks)), inf.converged, inf.n_iter,
                                       inf.seconds, inf.message))
     return points
+
+
+def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
+    """Simulated κ against l/L next to Equation 3 (Δ = 0): the figure of ``airmat validate``.
+
+    Parameters
+    ----------
+    points : sequence of ValidationPoint
+        As returned by :func:`validate_equation3` for ``layout``.
+    layout : SpecimenLayout
+        Its L and thickness d give the Equation-3 curve and the labels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    L_mm, d_mm = layout.L * 1e3, layout.thickness * 1e3
+    grid = np.linspace(0, 1, 201)
+    fig = new_figure((6.5, 4.5))
+    ax = fig.subplots()
+    ax.plot(grid, kappa1(grid * layout.L, layout.L, 0.0, layout.thickness), "k-",
+            label=f"Equation 3, Δ = 0, d = {d_mm:g} mm")
+    ax.errorbar([p.l_over_L for p in points], [p.kappa_sim for p in points],
+                yerr=[2 * p.kappa_sim_se for p in points], fmt="o", color="C3",
+                label="simulated: cylinder fit of the mid-surface")
+    ax.plot([p.l_over_L for p in points], [p.kappa_strings for p in points], "s", color="C0",
+            label="simulated: circle through each string's ends and middle (mean)")
+    ax.set_xlabel(f"string length ratio l / L (L = {L_mm:g} mm)")
+    ax.set_ylabel("curvature κ₁ (1/m)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title("airmat validate: inflation simulation against Equation 3")
+    fig.tight_layout()
+    return fig

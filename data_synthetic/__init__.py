@@ -12,7 +12,7 @@ One generator per module (functions are not re-exported under their module's nam
 
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
 
-from data_synthetic.ply_write import write_ply
+from airmat.lazy import attach
 
-
-__all__ = ["write_ply"]
+# public name -> its submodule, imported on first use (``airmat.lazy``)
+__getattr__, __dir__, __all__ = attach(__name__, {"ply_write": ["write_ply"]})

@@ -11,13 +11,15 @@ Public API (SI units: metres, pascals, 1/m):
 Comparing an inflation with Ŝ is the check's job (the ``check`` package).
 """
 
-from inflation.mesh import MattressMesh, build_mattress_mesh
-from inflation.model import Parameters, build_model
-from inflation.simulate import Inflation, inflate, inflate_many
-from inflation.solver import SolveResult, solve
-from inflation.strings import StringSet
+import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
+from airmat.lazy import attach
 
-__all__ = [
-    "MattressMesh", "build_mattress_mesh", "StringSet", "Parameters", "build_model",
-    "SolveResult", "solve", "Inflation", "inflate", "inflate_many",
-]
+# public name -> its submodule, imported on first use (``airmat.lazy``): ``import inflation.mesh``
+# runs this file first, and it must not load the solver and cvxopt
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "mesh": ["MattressMesh", "build_mattress_mesh"],
+    "strings": ["StringSet"],
+    "model": ["Parameters", "build_model"],
+    "solver": ["SolveResult", "solve"],
+    "simulate": ["Inflation", "inflate", "inflate_many"],
+})

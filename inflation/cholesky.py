@@ -28,6 +28,7 @@ override) while cvxopt loads; a value the user has set wins.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 from pathlib import Path
@@ -74,8 +75,12 @@ def openblas_coretype(flags: set[str] | None = None) -> str | None:
     return None
 
 
+@functools.cache
 def _import_cvxopt():
-    """Import cvxopt with its OpenBLAS told which kernels to use (see the module docstring)."""
+    """Import cvxopt with its OpenBLAS told which kernels to use (see the module docstring).
+
+    Called by the first factorization, not at import: importing the solver stays cheap.
+    """
     coretype = None if "cvxopt" in sys.modules or "OPENBLAS_CORETYPE" in os.environ else openblas_coretype()
     if coretype is not None:
         os.environ["OPENBLAS_CORETYPE"] = coretype      # read once, when the library loads
@@ -87,14 +92,13 @@ def _import_cvxopt():
     return cholmod, matrix, spmatrix
 
 
-cholmod, matrix, spmatrix = _import_cvxopt()
-
 
 def cvxopt_blas_kernels() -> str | None:
     """The kernel family cvxopt's bundled OpenBLAS runs (e.g. ``"SkylakeX"``), or None without one."""
     import ctypes
     import glob
 
+    _import_cvxopt()                            # loads it, with the kernel family chosen above
     import cvxopt
 
     libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
@@ -164,6 +168,7 @@ class ShiftedCholesky:
     """
 
     def __init__(self, pattern: sp.csr_matrix, groups: np.ndarray | None = None):
+        cholmod, matrix, spmatrix = _import_cvxopt()
         coo = sp.csr_matrix(pattern).tocoo()
         self.n = int(pattern.shape[0])
         lower = coo.row >= coo.col
@@ -195,6 +200,7 @@ class ShiftedCholesky:
         mu : float
             Diagonal shift.
         """
+        cholmod, matrix, _ = _import_cvxopt()
         vals = h.data[self._take].astype(float, copy=True)
         vals[self._diag] += mu
         self.n_factorizations += 1
@@ -210,12 +216,13 @@ class ShiftedCholesky:
     @property
     def factor_nnz(self) -> int:
         """Non-zeros of the Cholesky factor (after a successful :meth:`factor`)."""
-        return len(cholmod.getfactor(self._symbolic)) if self._ok else 0
+        return len(_import_cvxopt()[0].getfactor(self._symbolic)) if self._ok else 0
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,)."""
         if not self._ok:
             raise RuntimeError("no positive definite factorization to solve with")
+        cholmod, matrix, _ = _import_cvxopt()
         x = matrix(np.array(b, dtype=float, copy=True))
         cholmod.solve(self._symbolic, x)
         return np.array(x).reshape(-1)

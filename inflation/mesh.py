@@ -119,6 +119,8 @@ def build_mattress_mesh(width: float, height: float, thickness: float, *,
     >>> m.grid_shape, m.n_vertices
     ((9, 5), 114)
     """
+    import igl  # here, not at the top: 0.6 s that ``import inflation.mesh`` (the check's locate) need not pay
+
     for name, x in (("width", width), ("height", height), ("thickness", thickness),
                     ("resolution", resolution)):
         if not (np.isfinite(x) and x > 0):

@@ -22,14 +22,9 @@ def add_parser(sub, parents):
 def _write(points, folder, resolution_mm):
     import json
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
     from airmat.atomic import atomic_write_text
-    from calib.model import kappa1
+    from airmat.figures import save_png
+    from check.validation import validation_figure
 
     rows = [{"l_over_L": p.l_over_L, "kappa_sim_per_m": round(p.kappa_sim, 4),
              "kappa_sim_se_per_m": round(p.kappa_sim_se, 4), "kappa_strings_per_m": round(p.kappa_strings, 4),
@@ -43,22 +38,7 @@ def _write(points, folder, resolution_mm):
                       "kappa_eq3_per_m\n" +
                       "".join(f"{r['l_over_L']},{r['kappa_sim_per_m']},{r['kappa_sim_se_per_m']},"
                               f"{r['kappa_strings_per_m']},{r['kappa_eq3_per_m']}\n" for r in rows))
-    grid = np.linspace(0, 1, 201)
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    ax.plot(grid, kappa1(grid * 0.3, 0.3, 0.0, 0.07), "k-", label="Equation 3, Δ = 0, d = 70 mm")
-    ax.errorbar([p.l_over_L for p in points], [p.kappa_sim for p in points],
-                yerr=[2 * p.kappa_sim_se for p in points], fmt="o", color="C3",
-                label="simulated: cylinder fit of the mid-surface")
-    ax.plot([p.l_over_L for p in points], [p.kappa_strings for p in points], "s", color="C0",
-            label="simulated: circle through each string's ends and middle (mean)")
-    ax.set_xlabel("string length ratio l / L (L = 300 mm)")
-    ax.set_ylabel("curvature κ₁ (1/m)")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    ax.set_title("airmat validate: inflation simulation against Equation 3")
-    fig.tight_layout()
-    fig.savefig(folder / "validate.png", dpi=110)
-    plt.close(fig)
+    save_png(validation_figure(points), folder / "validate.png", dpi=110)
     return rows
 
 

@@ -5,11 +5,13 @@ millimetres, built by :func:`design_document`), so all files agree with it
 by construction. Writers go through :mod:`airmat.atomic`.
 """
 
-from design.export.cutting_list import write_cutting_list
-from design.export.design_json import design_document, read_design_json, write_design_json
-from design.export.dxf import write_dxf
-from design.export.preview import write_preview
-from design.export.svg import write_svg
+from airmat.lazy import attach
 
-__all__ = ["design_document", "write_design_json", "read_design_json", "write_svg", "write_dxf",
-           "write_cutting_list", "write_preview"]
+# public name -> its submodule, imported on first use (``airmat.lazy``): ezdxf loads with the DXF writer only
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "design_json": ["design_document", "write_design_json", "read_design_json"],
+    "svg": ["write_svg"],
+    "dxf": ["write_dxf"],
+    "cutting_list": ["write_cutting_list"],
+    "preview": ["write_preview", "preview_figure"],
+})

@@ -14,9 +14,6 @@ from __future__ import annotations
 import contextlib
 import io
 
-import ezdxf
-from ezdxf import units
-
 from airmat.atomic import atomic_write_bytes
 
 __all__ = ["write_dxf", "LAYERS"]
@@ -28,6 +25,8 @@ TEXT_HEIGHT_MM = 8.0
 
 @contextlib.contextmanager
 def _fixed_metadata():
+    import ezdxf
+
     old = ezdxf.options.write_fixed_meta_data_for_testing
     ezdxf.options.write_fixed_meta_data_for_testing = True
     try:
@@ -43,6 +42,9 @@ def layer_name(side: str, family: str) -> str:
 
 def write_dxf(path, doc: dict) -> None:
     """Write ``pattern.dxf`` from a design document (see :mod:`design.export.design_json`)."""
+    import ezdxf  # here, not at the top: importing the designer must not load ezdxf
+    from ezdxf import units
+
     W, H = doc["mattress"]["width_mm"], doc["mattress"]["height_mm"]
     with _fixed_metadata():
         dxf = ezdxf.new("R2010", setup=False)

@@ -3,19 +3,19 @@
 Left: Ω (mm), top-face strings solid, bottom-face strings dotted, coloured
 by the median string length (colour bar in mm). Right: Ŝ in 3D (mm), each
 triangle coloured by σ, the mean ratio of its edge lengths on Ŝ to those on
-Ω (1 = no stretch). Matplotlib's Agg canvas, no pyplot state.
+Ω (1 = no stretch). :func:`preview_figure` returns the
+``matplotlib.figure.Figure``, :func:`write_preview` writes it; no pyplot
+state (:mod:`airmat.figures`).
 """
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 
-from airmat.atomic import atomic_write_bytes
+from airmat.figures import new_figure, save_png
 from airmat.units import M_TO_MM
 
-__all__ = ["write_preview", "face_sigma"]
+__all__ = ["preview_figure", "write_preview", "face_sigma"]
 
 
 def face_sigma(xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -88,13 +88,25 @@ def _surface_axes(fig, ax, xyz, uv, faces, report):
     ax.set_title(f"approximated surface S^ coloured by sigma (triangle mean)\n{edges}; {verdict}", fontsize=9)
 
 
-def write_preview(path, doc: dict, xyz, uv, faces, *, dpi: int = 100) -> None:
-    """Write ``preview.png`` from a design document and Ŝ (xyz (n, 3) m, uv (n, 2) m, faces (m, 3))."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+def preview_figure(doc: dict, xyz, uv, faces):
+    """The preview of a design: its pattern on Ω and Ŝ coloured by σ.
 
-    fig = Figure(figsize=(14, 6))
-    FigureCanvasAgg(fig)
+    Parameters
+    ----------
+    doc : dict
+        The design document (``design.json``, millimetres; see :mod:`design.export.design_json`).
+    xyz : ndarray of shape (n, 3)
+        Vertices of Ŝ (m).
+    uv : ndarray of shape (n, 2)
+        The same vertices on Ω (m).
+    faces : ndarray of shape (m, 3)
+        Triangles of Ŝ.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = new_figure((14, 6))
     _pattern_axes(fig, fig.add_subplot(1, 2, 1), doc)
     _surface_axes(fig, fig.add_subplot(1, 2, 2, projection="3d"), np.asarray(xyz, float),
                   np.asarray(uv, float), faces, doc.get("report", {}))
@@ -102,6 +114,9 @@ def write_preview(path, doc: dict, xyz, uv, faces, *, dpi: int = 100) -> None:
     if doc.get("uncalibrated"):
         title += "  (UNCALIBRATED: paper values)"
     fig.suptitle(title, fontsize=12)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    atomic_write_bytes(path, buf.getvalue())
+    return fig
+
+
+def write_preview(path, doc: dict, xyz, uv, faces, *, dpi: int = 100) -> None:
+    """Write ``preview.png``, the :func:`preview_figure` of a design document and Ŝ (m)."""
+    save_png(preview_figure(doc, xyz, uv, faces), path, dpi=dpi)

@@ -11,7 +11,7 @@ from calib.calibrate import Calibration, SpecimenFit, _reference_face, calibrate
 from calib.curve import kappa_curve
 from calib.manifest import Manifest
 from calib.model import kappa1
-from calib.plots import plot_corner, plot_curve
+from calib.plots import corner_figure, curve_figure, plot_corner, plot_curve
 from calib.posterior import sample_posterior, specimen_data
 from calib.calibration_io import calibration_dict, summary_text, write_calibration
 from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
@@ -141,3 +141,23 @@ def test_plots_are_written(tmp_path, hand_made):
                  plot_curve(cal, tmp_path / "curve2.png")):
         data = path.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+def test_plot_functions_return_the_figure_the_writers_save(tmp_path, hand_made):
+    import io
+
+    from matplotlib.figure import Figure
+
+    truth = {"delta_mm": 18.0, "d_mm": 70.0, "sigma_per_m": 0.1}
+    for fig, path, dpi in ((curve_figure(hand_made, truth=truth), plot_curve(hand_made, tmp_path / "c.png",
+                                                                              truth=truth), 120),
+                           (corner_figure(hand_made.posterior), plot_corner(hand_made.posterior,
+                                                                            tmp_path / "k.png"), 110)):
+        assert isinstance(fig, Figure)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        assert buf.getvalue() == path.read_bytes()
+    curve = curve_figure(hand_made, truth=truth)
+    assert any(t.startswith("truth") for t in curve.axes[0].get_legend_handles_labels()[1])
+    assert len(corner_figure(hand_made.posterior).axes) == 9      # 3 x 3 corner grid
+

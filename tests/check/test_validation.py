@@ -33,3 +33,21 @@ def test_simulated_curvature_follows_equation3():
     k_eq3 = np.array([p.kappa_eq3 for p in pts])
     assert np.all(np.diff(k_sim) < 0) and k_sim[-1] > 0
     assert np.all(k_sim > k_eq3) and np.all(k_sim < 1.4 * k_eq3)
+
+
+def test_validation_figure_is_a_figure_with_the_points_and_equation_3():
+    from matplotlib.figure import Figure
+
+    from check.validation import ValidationPoint, validation_figure
+
+    lay = SpecimenLayout(L=0.25, thickness=0.05)
+    pts = [ValidationPoint(r, 10 * r, 0.2, 11 * r, 9 * r, True, 10, 1.0, "ok") for r in (0.3, 0.6)]
+    fig = validation_figure(pts, layout=lay)
+    assert isinstance(fig, Figure)
+    (ax,) = fig.axes
+    assert "L = 250 mm" in ax.get_xlabel()
+    labels = ax.get_legend_handles_labels()[1]
+    assert any("d = 50 mm" in t for t in labels) and len(labels) == 3
+    x, y = ax.lines[0].get_data()
+    assert y[-1] == pytest.approx(0.0, abs=1e-9)                   # Equation 3: flat at l = L (Δ = 0)
+    np.testing.assert_allclose(ax.lines[-1].get_data()[1], [2.7, 5.4])   # the strings' κ, drawn as given

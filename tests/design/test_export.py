@@ -12,7 +12,7 @@ from analytic_fields import grid_uv, saddle_field
 from design.calibration_source import default_calibration
 from design.export import (design_document, read_design_json, write_cutting_list, write_design_json,
                            write_dxf, write_preview, write_svg)
-from design.export.preview import face_sigma
+from design.export.preview import face_sigma, preview_figure
 from design.export.svg import svg_transform
 from design.mattress import Mattress
 from design.string_lengths import string_pattern
@@ -164,3 +164,19 @@ def test_other_seed_changes_only_the_tolerances(tmp_path, written):
     other, _ = _document(seed=1)
     assert [d["polyline_mm"] for d in other["dashes"]] == [d["polyline_mm"] for d in doc["dashes"]]
     assert [d["l_mm"] for d in other["dashes"]] != [d["l_mm"] for d in doc["dashes"]]
+
+
+def test_preview_figure_is_the_figure_write_preview_saves(written, tmp_path):
+    import io
+
+    from matplotlib.figure import Figure
+
+    folder, doc, _ = written
+    fig = preview_figure(doc, *_cylinder_surface())
+    assert isinstance(fig, Figure)
+    assert fig.get_suptitle().startswith("airmat design: saddle-test")
+    assert sum(ax.name == "3d" for ax in fig.axes) == 1 and len(fig.axes) == 4   # two panels, two colour bars
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=40)
+    assert buf.getvalue() == (folder / "preview.png").read_bytes()
+

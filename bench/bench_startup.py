@@ -1,0 +1,154 @@
+"""Benchmark: start-up cost of the command paths, a baseline commit against the current tree.
+
+Usage::
+
+    .venv/bin/python bench/bench_startup.py                       # baseline fa1ff47, 5 runs each
+    .venv/bin/python bench/bench_startup.py --baseline HEAD~3 --runs 9
+
+The baseline is checked out with ``git worktree add`` into a temporary folder
+(removed at the end). Each case runs in a fresh interpreter with
+``PYTHONPATH`` set to one tree, baseline and current alternating so that a
+busy machine slows both alike; the wall time is the median of ``--runs``
+runs. The "loaded" column lists the heavy libraries left in ``sys.modules``.
+A second table gives the largest third-party (not first-party, not standard-library) imports of each case by
+cumulative ``-X importtime`` (one run, per top-level package). Prints
+Markdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FIRST_PARTY = {"airmat", "calib", "design", "inflation", "check", "data_synthetic"}
+HEAVY = ("numpy", "scipy", "matplotlib", "ezdxf", "cvxopt", "igl", "trimesh", "emcee", "open3d", "skimage",
+         "design", "inflation", "check")
+
+_HELP = "import contextlib, io\nfrom airmat.cli import main\n" \
+        "with contextlib.redirect_stdout(io.StringIO()):\n    try:\n        main(['--help'])\n" \
+        "    except SystemExit:\n        pass\n"
+
+
+def _mesh_module(tree: Path) -> str:
+    """The inflation mesh module: ``inflation.mesh``, formerly ``design.inflation.mesh``."""
+    return "inflation.mesh" if (tree / "inflation" / "mesh.py").exists() else "design.inflation.mesh"
+
+
+def cases(tree: Path) -> list[tuple[str, str]]:
+    """(label, code) of each measured start-up path in ``tree``."""
+    parser = "from airmat.cli import build_parser\nbuild_parser()\n"
+    return [
+        ("python -c pass (interpreter only)", "pass"),
+        ("`airmat --help`", _HELP),
+        ("`import calib`", "import calib"),
+        ("`import design`", "import design"),
+        (f"`import {_mesh_module(tree)}`", f"import {_mesh_module(tree)}"),
+        ("`airmat fit` imports", parser + "import airmat.cli.fit, calib.cylinder_fit, calib.scan_io"),
+        ("`airmat calibrate` imports", parser + "import airmat.cli.calibrate, calib.calibrate, calib.plots, "
+                                                "calib.report"),
+    ]
+
+
+def _env(tree: Path) -> dict:
+    return {**os.environ, "PYTHONPATH": str(tree)}
+
+
+def wall_time(tree: Path, code: str) -> float:
+    """Seconds for a fresh interpreter to run ``code`` with ``tree`` on the path."""
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], env=_env(tree), cwd=tree, check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def loaded(tree: Path, code: str) -> list[str]:
+    """The heavy top-level packages in ``sys.modules`` after ``code``."""
+    probe = code + "\nimport sys, json\nprint(json.dumps(sorted({m.split('.')[0] for m in sys.modules})))"
+    out = subprocess.run([sys.executable, "-c", probe], env=_env(tree), cwd=tree, check=True,
+                         capture_output=True, text=True).stdout
+    names = set(json.loads(out.strip().splitlines()[-1]))
+    return [h for h in HEAVY if h in names]
+
+
+def top_imports(tree: Path, code: str, k: int) -> list[tuple[str, float]]:
+    """The ``k`` third-party top-level packages with the largest cumulative import time (ms).
+
+    A package's time is its largest cumulative entry (the first import of any of its modules).
+    """
+    err = subprocess.run([sys.executable, "-X", "importtime", "-c", code], env=_env(tree), cwd=tree,
+                         check=True, capture_output=True, text=True).stderr
+    best: dict[str, float] = {}
+    for line in err.splitlines():
+        m = re.match(r"import time:\s+(\d+) \|\s+(\d+) \|(\s*)(\S+)", line)
+        if not m:
+            continue
+        top = m.group(4).split(".")[0]
+        if top in FIRST_PARTY or top in sys.stdlib_module_names or top.startswith("_"):
+            continue
+        best[top] = max(best.get(top, 0.0), int(m.group(2)) / 1e3)
+    return sorted(((n, ms) for n, ms in best.items() if ms >= 1.0), key=lambda kv: -kv[1])[:k]  # 0 ms: probes
+
+
+def checkout(commit: str, where: Path) -> Path:
+    """``git worktree add --detach`` of ``commit`` into ``where``."""
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(where), commit], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return where
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", default="fa1ff47", help="commit to compare with (default fa1ff47)")
+    ap.add_argument("--runs", type=int, default=5, help="runs per case and tree (default 5)")
+    ap.add_argument("--top", type=int, default=5, help="largest imports listed per case (default 5)")
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="airmat-startup-") as tmp:
+        base = checkout(args.baseline, Path(tmp) / "baseline")
+        try:
+            trees = {"baseline": base, "current": ROOT}
+            labelled = {name: cases(tree) for name, tree in trees.items()}
+            rows = []
+            for i in range(len(labelled["current"])):
+                times = {name: [] for name in trees}
+                for _ in range(args.runs):
+                    for name, tree in trees.items():     # alternate: load on the machine hits both
+                        times[name].append(wall_time(tree, labelled[name][i][1]))
+                med = {name: statistics.median(t) for name, t in times.items()}
+                rows.append((i, med, {name: loaded(tree, labelled[name][i][1]) for name, tree in trees.items()}))
+            head = (f"| path | {args.baseline} (s) | current (s) | speed-up | loaded at {args.baseline} | "
+                    "loaded now |")
+            print(f"Start-up, median of {args.runs} fresh interpreters ({sys.executable}, "
+                  f"{os.cpu_count()} CPUs)\n")
+            print(head)
+            print("|" + " --- |" * 6)
+            for i, med, heavy in rows:
+                label = labelled["current"][i][0]
+                if labelled["baseline"][i][0] != label:
+                    label = f"{labelled['baseline'][i][0]} → {label}"
+                print(f"| {label} | {med['baseline']:.2f} | {med['current']:.2f} | "
+                      f"{med['baseline'] / med['current']:.1f}x | {', '.join(heavy['baseline']) or '-'} | "
+                      f"{', '.join(heavy['current']) or '-'} |")
+            print(f"\nLargest third-party imports (cumulative `-X importtime`, ms, one run)\n")
+            print(f"| path | {args.baseline} | current |")
+            print("| --- | --- | --- |")
+            for i in range(1, len(labelled["current"])):
+                cells = [", ".join(f"{n} {ms:.0f}" for n, ms in top_imports(tree, labelled[name][i][1], args.top))
+                         or "-" for name, tree in trees.items()]
+                print(f"| {labelled['current'][i][0]} | {cells[0]} | {cells[1]} |")
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base)], check=False,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

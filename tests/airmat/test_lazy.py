@@ -1,0 +1,68 @@
+"""Lazy package exports: every public name resolves to its submodule's object, on first use."""
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from airmat.lazy import attach
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ("calib", "design", "design.export", "inflation", "check", "data_synthetic")
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_public_name_resolves_and_is_listed(package):
+    pkg = importlib.import_module(package)
+    assert len(pkg.__all__) == len(set(pkg.__all__)) > 0
+    listed = dir(pkg)
+    for name in pkg.__all__:
+        value = getattr(pkg, name)
+        assert name in listed
+        assert not isinstance(value, types.ModuleType), name   # the object, not a submodule of that name
+        home = getattr(value, "__module__", None)
+        if home is not None and isinstance(value, type | types.FunctionType):
+            assert home.startswith(package + "."), (name, home)
+    with pytest.raises(AttributeError, match="no_such_name"):
+        getattr(pkg, "no_such_name")
+
+
+def test_star_import_and_from_import():
+    ns = {}
+    exec("from calib import *", ns)
+    import calib
+    from calib import kappa1
+    from calib.model import kappa1 as direct
+
+    assert kappa1 is direct and ns["kappa1"] is direct
+    assert set(calib.__all__) <= set(ns)
+
+
+def test_a_public_name_that_is_also_a_submodule_stays_the_function_whichever_is_imported_first():
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    code = """
+import json, types
+import calib.calibrate                     # the submodule first: Python binds it on the package
+import calib
+from calib import calibrate
+print(json.dumps([isinstance(calib.calibrate, types.FunctionType), calibrate is calib.calibrate,
+                  calib.calibrate.__module__]))
+"""
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout
+    assert json.loads(out) == [True, True, "calib.calibrate"]
+
+
+def test_attach_refuses_a_name_listed_twice():
+    mod = types.ModuleType("lazy_probe")
+    sys.modules["lazy_probe"] = mod
+    try:
+        with pytest.raises(ValueError, match="two submodules"):
+            attach("lazy_probe", {"a": ["x"], "b": ["x"]})
+    finally:
+        del sys.modules["lazy_probe"]
