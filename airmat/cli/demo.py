@@ -90,6 +90,9 @@ def summary(out: Path, seconds: dict) -> str:
 
 
 def run(args) -> int:
+    from airmat.atomic import check_out_dir
+
+    check_out_dir(args.out)
     out = Path(args.out)
     steps = [
         ("synth", ["synth", str(out / "synth"), "--points", str(args.points)]),

@@ -38,10 +38,11 @@ def table_row(name: str, design: dict, inflate: dict, seconds: float) -> str:
 
 
 def run(args) -> int:
-    from airmat.atomic import atomic_write_text
+    from airmat.atomic import atomic_write_text, check_out_dir
     from airmat.cli.demo import run_steps
     from airmat.errors import InputError
 
+    check_out_dir(args.out, inputs=[args.calibration])
     names = [n.strip() for n in args.presets.split(",") if n.strip()]
     unknown = sorted(set(names) - set(PRESETS))
     if unknown:
