@@ -310,9 +310,9 @@ def _prepare(tmp: Path, out: Path) -> None:
     os.chmod(tmp, mode)
 
 
-def _swap(tmp: Path, out: Path) -> None:
-    """Put ``tmp`` at ``out`` in one step; the old ``out`` (if any) ends up at ``tmp``."""
-    if not os.path.lexists(out):
+def _swap(tmp: Path, out: Path, *, replace: bool) -> None:
+    """Put ``tmp`` at ``out`` in one step; the old ``out`` (``replace``: there is one) ends up at ``tmp``."""
+    if not replace:
         os.rename(tmp, out)
         return
     if _exchange is not None:
@@ -333,12 +333,13 @@ def _swap(tmp: Path, out: Path) -> None:
 
 def _publish(tmp: Path, out: Path, parent: Path) -> None:
     _prepare(tmp, out)
-    with _locked(parent):
-        _test_delay()
-        if os.path.lexists(out) and not out.is_dir():  # made a file while we computed
+    with _locked(parent):  # between looking at out and swapping, no other run may publish
+        replace = os.path.lexists(out)
+        if replace and not out.is_dir():  # made a file while we computed
             raise InputError("exists and is not a folder; give a folder for the output", path=out)
+        _test_delay()
         with _signals_deferred():
-            _swap(tmp, out)
+            _swap(tmp, out, replace=replace)
         _test_delay()
 
 
