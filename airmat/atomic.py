@@ -198,7 +198,7 @@ def sweep_stale(out: str | os.PathLike) -> list[Path]:
                 shutil.rmtree(path, ignore_errors=True)
                 removed.append(path)
     if removed:
-        log.info("removed %d staging folder(s) left by interrupted runs next to %s", len(removed), out)
+        log.debug("removed %d staging folder(s) left by interrupted runs next to %s", len(removed), out)
     return removed
 
 
