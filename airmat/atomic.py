@@ -90,20 +90,24 @@ class ExchangeUnsupported(OSError):
     """The OS or the file system cannot exchange two directories atomically."""
 
 
-def _find_exchange() -> Callable[[str, str], None] | None:
-    """The atomic ``exchange(a, b)`` of this OS through libc, or None."""
+def _find_exchange(*, wrapper: bool = True) -> Callable[[str, str], None] | None:
+    """The atomic ``exchange(a, b)`` of this OS through libc, or None.
+
+    ``wrapper=False`` skips glibc's ``renameat2`` wrapper and makes the raw
+    system call, as on glibc < 2.28 (a test checks both ways).
+    """
     try:
         libc = ctypes.CDLL(None, use_errno=True)
     except OSError:  # pragma: no cover
         return None
     if sys.platform.startswith("linux"):
-        if hasattr(libc, "renameat2"):
+        if wrapper and hasattr(libc, "renameat2"):
             fn = libc.renameat2
             fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
 
             def call(a, b):
                 return fn(_AT_FDCWD, a, _AT_FDCWD, b, _RENAME_EXCHANGE)
-        elif platform.machine() in _SYS_RENAMEAT2:  # pragma: no cover - old glibc
+        elif platform.machine() in _SYS_RENAMEAT2:  # old glibc
             nr = _SYS_RENAMEAT2[platform.machine()]
             fn = libc.syscall
             fn.argtypes = [ctypes.c_long, ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
@@ -268,12 +272,15 @@ def check_out_dir(out: str | os.PathLike, *, inputs: Iterable[str | os.PathLike 
     ------
     InputError
         With ``path=out``: ``out`` is an existing file; a folder above it is
-        a file or cannot be written to; ``out`` is or holds the working
-        folder, the home folder, the root, or an input.
+        a file or cannot be written to; ``out`` is a mount point, or is or
+        holds the working folder, the home folder, the root, or an input.
     """
     real = Path(os.path.realpath(out))
     if os.path.lexists(out) and not real.is_dir():
         raise InputError("exists and is not a folder; give a folder for the output", path=out)
+    if os.path.ismount(real):
+        raise InputError("is a mount point; the output replaces its folder as a whole, give a folder "
+                         "inside it", path=out)
     why = _protected(real)
     if why:
         raise InputError(f"{why}; the output replaces its folder as a whole, give a folder of its own",

@@ -117,13 +117,30 @@ def test_success_replaces_the_old_folder_as_a_whole(tmp_path, monkeypatch, excha
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
-def test_exchange_swaps_two_folders(tmp_path):
+@pytest.mark.parametrize("wrapper", [True, False], ids=["glibc-wrapper", "raw-syscall"])
+def test_exchange_swaps_two_folders(tmp_path, wrapper):
+    exchange = atomic._find_exchange(wrapper=wrapper)
+    if exchange is None:
+        pytest.skip("no renameat2 system call known on this machine")
     (tmp_path / "a").mkdir()
     (tmp_path / "a" / "x").write_text("a")
     (tmp_path / "b").mkdir()
-    atomic._exchange(str(tmp_path / "a"), str(tmp_path / "b"))
-    assert (tmp_path / "b" / "x").read_text() == "a"
-    assert list((tmp_path / "a").iterdir()) == []
+    (tmp_path / "b" / "y").write_text("b")
+    exchange(str(tmp_path / "a"), str(tmp_path / "b"))
+    assert _tree(tmp_path) == {"a/y": "b", "b/x": "a"}
+    with pytest.raises(FileNotFoundError):
+        exchange(str(tmp_path / "a"), str(tmp_path / "missing"))
+
+
+def test_a_symlinked_out_keeps_its_link_and_gets_the_new_result(tmp_path):
+    real = tmp_path / "real"
+    _old(real)
+    (tmp_path / "link").symlink_to(real)
+    with staged_dir(tmp_path / "link") as tmp:
+        _write_new(tmp)
+    assert (tmp_path / "link").is_symlink()
+    assert _tree(real) == NEW
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real"]
 
 
 def test_failed_swap_leaves_the_old_folder_untouched(tmp_path, monkeypatch):
@@ -289,6 +306,8 @@ def test_check_out_dir_refuses_folders_a_swap_would_destroy(tmp_path, monkeypatc
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     with pytest.raises(InputError, match="home folder or the root"):
         check_out_dir(tmp_path / "home")
+    with pytest.raises(InputError, match="mount point"):
+        check_out_dir("/proc")
     with pytest.raises(InputError, match="holds the input"):
         check_out_dir("inputs", inputs=["inputs/manifest.csv"])
     with pytest.raises(InputError, match="holds the input"):
