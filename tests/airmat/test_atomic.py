@@ -1,8 +1,17 @@
-"""Atomic outputs: a failed run leaves nothing behind and overwrites nothing good."""
+"""Atomic outputs: a failed run leaves nothing behind; a reader sees the whole old result or the whole new one."""
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
 
 import pytest
 
-from airmat.atomic import atomic_write_text, staged_dir
+import airmat.atomic as atomic
+from airmat.atomic import atomic_write_text, check_out_dir, staged_dir, sweep_stale
+from airmat.errors import InputError
 
 
 def test_staged_dir_publishes_on_success(tmp_path):
@@ -50,7 +59,6 @@ def test_atomic_write_text_replaces_whole_file(tmp_path):
 
 
 def test_outputs_are_ordinary_readable_files(tmp_path):
-    import os
     import stat
     p = tmp_path / "f.txt"
     atomic_write_text(p, "x")
@@ -61,18 +69,6 @@ def test_outputs_are_ordinary_readable_files(tmp_path):
 
 
 # ---------------------------------------------------------------- whole-folder swap
-
-import os
-import signal
-import subprocess
-import sys
-import threading
-from pathlib import Path
-
-import airmat.atomic as atomic
-from airmat.atomic import check_out_dir, sweep_stale
-from airmat.errors import InputError
-
 
 def _tree(folder):
     return {str(p.relative_to(folder)): p.read_text() for p in sorted(Path(folder).rglob("*")) if p.is_file()}
