@@ -41,11 +41,12 @@ def _read_truth(path):
 
 
 def run(args) -> int:
-    from airmat.atomic import staged_dir
+    from airmat.atomic import check_out_dir, staged_dir
     from calib.calibrate import calibrate
     from calib.plots import plot_corner, plot_curve
     from calib.calibration_io import summary_text, write_calibration
 
+    check_out_dir(args.out, inputs=[args.manifest, args.truth])
     truth = _read_truth(args.truth)
     cal = calibrate(args.manifest, scan_units=args.scan_units, n_walkers=args.walkers,
                     max_steps=args.max_steps, seed=args.seed)

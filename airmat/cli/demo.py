@@ -78,7 +78,7 @@ def _published(cal, staged: Path, out: Path):
 
 
 def run(args) -> int:
-    from airmat.atomic import staged_dir
+    from airmat.atomic import check_out_dir, staged_dir
     from airmat.units import MM
     from calib.calibrate import calibrate
     from calib.calibration_io import write_calibration
@@ -92,6 +92,7 @@ def run(args) -> int:
     from design.presets import preset
 
     # every option is checked before the first step runs
+    check_out_dir(args.out)
     if not (args.resolution_mm > 0):
         raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
     if args.points < 1000:

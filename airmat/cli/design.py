@@ -123,13 +123,14 @@ def summary_text(doc: dict, out) -> str:
 
 
 def run(args) -> int:
-    from airmat.atomic import staged_dir
+    from airmat.atomic import check_out_dir, staged_dir
     from airmat.progress import progress_enabled
     from design.calibration_source import PAPER, load_calibration
     from design.design_io import write_design
     from design.pipeline import design
     from design.stripes import check_stripe_params
 
+    check_out_dir(args.out, inputs=[args.target, args.calibration])
     logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines are about DXF internals
     # cheap checks first, so that a bad argument is the only line on stderr
     params = _params(args)

@@ -47,7 +47,7 @@ def table_row(design, check, seconds: float) -> str:
 def run(args) -> int:
     import dataclasses
 
-    from airmat.atomic import atomic_write_text, staged_dir
+    from airmat.atomic import atomic_write_text, check_out_dir, staged_dir
     from airmat.units import MM
     from check.inflation_check import check
     from check.report import check_dict, write_check
@@ -56,6 +56,7 @@ def run(args) -> int:
     from design.pipeline import design
     from design.presets import preset
 
+    check_out_dir(args.out, inputs=[args.calibration])
     names = [n.strip() for n in args.presets.split(",") if n.strip()]
     unknown = sorted(set(names) - set(PRESETS))
     if unknown or not names:

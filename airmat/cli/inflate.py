@@ -25,13 +25,14 @@ def add_parser(sub, parents):
 def run(args) -> int:
     from dataclasses import replace
 
-    from airmat.atomic import staged_dir
+    from airmat.atomic import check_out_dir, staged_dir
     from airmat.units import MM
     from check.inflation_check import check
     from design.design_io import read_design
     from inflation.model import Parameters
     from check.report import summary_text, write_check
 
+    check_out_dir(args.out, inputs=[args.design])
     if not (args.resolution_mm > 0):
         raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
     params = Parameters()

@@ -32,9 +32,11 @@ def add_parser(sub, parents):
 
 
 def run(args) -> int:
+    from airmat.atomic import check_out_dir
     from airmat.units import MM
     from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
+    check_out_dir(args.outdir)
     ratios = DEFAULT_L_OVER_L if args.l_over_L is None else _ratios(args.l_over_L)
     cs = calibration_set(args.outdir, delta=args.delta_mm * MM, d=args.d_mm * MM, L=args.L_mm * MM,
                          l_over_L=ratios, n_points=args.points, scatter=args.scatter,

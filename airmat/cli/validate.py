@@ -43,10 +43,11 @@ def _write(points, folder, resolution_mm):
 
 
 def run(args) -> int:
-    from airmat.atomic import staged_dir
+    from airmat.atomic import check_out_dir, staged_dir
     from airmat.units import MM
     from check.validation import validate_equation3
 
+    check_out_dir(args.out)
     try:
         ratios = [float(x) for x in args.ratios.split(",") if x.strip()]
     except ValueError:
