@@ -54,7 +54,7 @@ def cases(tree: Path) -> list[tuple[str, str]]:
         (f"`import {_mesh_module(tree)}`", f"import {_mesh_module(tree)}"),
         ("`airmat fit` imports", parser + "import airmat.cli.fit, calib.cylinder_fit, calib.scan_io"),
         ("`airmat calibrate` imports", parser + "import airmat.cli.calibrate, calib.calibrate, calib.plots, "
-                                                "calib.report"),
+                                                "calib.calibration_io"),
     ]
 
 

@@ -49,7 +49,7 @@ def test_the_fit_and_calibrate_paths_import_nothing_of_the_designer_or_the_plots
 from airmat.cli import build_parser
 build_parser()
 import airmat.cli.fit, airmat.cli.calibrate, calib.cylinder_fit, calib.scan_io
-import calib.calibrate, calib.report, calib.plots
+import calib.calibrate, calib.calibration_io, calib.plots
 from calib import calibrate, fit_cylinder, kappa1
 print(json.dumps(loaded()))
 """)
