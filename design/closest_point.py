@@ -25,8 +25,12 @@ from trimesh.triangles import points_to_barycentric
 
 __all__ = ["ClosestPoints", "MeshProjector"]
 
-#: a barycentric coordinate below this (relative) puts a closest point on the opposite edge
-ON_EDGE = 1e-6
+#: a closest point nearer than this (in mean edge lengths of the mesh) to a rim edge or rim vertex
+#: of its triangle is on the rim. Generous on purpose: open3d finds the closest triangle in
+#: float32 and among near-ties (feet within ~1e-4 m of an edge) may return a neighbour, so the
+#: foot can sit that far beside the rim vertex; and flagging a point inside the rim costs nothing
+#: (its foot on its own triangle is its projection onto that triangle's plane).
+RIM_TOL = 0.05
 
 
 def _rim_flags(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -111,6 +115,11 @@ class MeshProjector:
                          vertices[self._faces[:, 2]] - vertices[self._faces[:, 0]])
         self._unit_normal = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
         self._rim_edge, self._rim_vertex = _rim_flags(self._faces, len(vertices))
+        tri = vertices[self._faces]
+        side = np.linalg.norm(tri[:, [2, 0, 1]] - tri[:, [1, 2, 0]], axis=2)   # side opposite corner i
+        # altitude onto the side opposite corner i: the distance per unit of barycentric coordinate i
+        self._altitude = np.linalg.norm(cross, axis=1)[:, None] / np.maximum(side, 1e-300)
+        self._rim_tol = RIM_TOL * float(side.mean())
 
     def closest(self, points: np.ndarray) -> ClosestPoints:
         """Closest points on the mesh to ``points`` (k, 3) (m)."""
@@ -132,8 +141,9 @@ class MeshProjector:
         """Whether each closest point ``cp`` (k, 3) on triangle ``face`` (k,) lies on the mesh's rim."""
         with np.errstate(invalid="ignore", divide="ignore"):
             bary = points_to_barycentric(tri, cp)
-        on_edge = (bary < ON_EDGE) & self._rim_edge[face]
-        at_vertex = (bary > 1 - ON_EDGE) & self._rim_vertex[self._faces[face]]
+        on_edge = (bary * self._altitude[face] < self._rim_tol) & self._rim_edge[face]
+        at_vertex = ((np.linalg.norm(tri - cp[:, None], axis=2) < self._rim_tol)
+                     & self._rim_vertex[self._faces[face]])
         return (on_edge | at_vertex).any(axis=1)
 
     def closest_extended(self, points: np.ndarray) -> ClosestPoints:
