@@ -36,10 +36,11 @@ RIM_TOL = 0.05
 def _rim_flags(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """Rim flags of a triangle mesh: per face (m, 3), whether the edge opposite corner i is a
     boundary edge (in one triangle only), and per vertex (n,), whether it is on such an edge."""
-    # edge opposite corner i: (i+1, i+2)
+    # edge opposite corner i: (i+1, i+2), as one integer key per edge (1-D unique is fast)
     opposite = np.sort(np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1), axis=2)
-    _, inverse, counts = np.unique(opposite.reshape(-1, 2), axis=0, return_inverse=True, return_counts=True)
-    rim_edge = (counts[inverse.ravel()] == 1).reshape(-1, 3)
+    key = opposite[..., 0] * np.int64(n_vertices) + opposite[..., 1]
+    _, inverse, counts = np.unique(key.ravel(), return_inverse=True, return_counts=True)
+    rim_edge = (counts[inverse] == 1).reshape(-1, 3)
     rim_vertex = np.zeros(n_vertices, bool)
     rim_vertex[opposite[rim_edge].ravel()] = True
     return rim_edge, rim_vertex

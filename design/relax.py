@@ -286,15 +286,18 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     projector = projector or MeshProjector(target.vertices, target.faces)
     prob = _Problem(uv, faces, projector, k_a1, k_a2, k_a3)
     spacing = float(np.median(prob.rest))
-    mat = (_best_placement(target, projector, width, height, spacing=spacing, k=(k_a1, k_a2, k_a3),
-                           stall=stall, anderson=anderson) if placement is None
-           else placement_matrix(placement, width, height))
-    levels = _coarse_levels(spacing, width, height) if levels is None else int(levels)
     t0 = time.perf_counter()
+    settled = None   # the chosen candidate's coarse Ŝ, when its scoring relaxation converged
+    if placement is None:
+        mat, settled = _best_placement(target, projector, width, height, spacing=spacing,
+                                       k=(k_a1, k_a2, k_a3), stall=stall, anderson=anderson)
+    else:
+        mat = placement_matrix(placement, width, height)
+    levels = _coarse_levels(spacing, width, height) if levels is None else int(levels)
     x0 = apply_placement(mat, uv - lo)
     if levels:
         x0 = _coarse_start(uv - lo, mat, projector, spacing=spacing, levels=levels, k=(k_a1, k_a2, k_a3),
-                           stall=stall, max_iter=max_iter, anderson=anderson)
+                           stall=stall, max_iter=max_iter, anderson=anderson, settled=settled)
     bar = progress_bar(total=max_iter, desc="relax Ŝ", unit="it") if progress and progress_enabled() else None
     try:
         x, it, status, residual, history = _iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
@@ -340,6 +343,9 @@ def _best_placement(target, projector, width, height, *, spacing, k, stall, ande
     of the coarse start; its score is the share of Ω's area then beyond S's rim. The first
     candidate (the default) is kept unless another one leaves more than PLACEMENT_MARGIN
     less of Ω off S; when nothing of it is off S, the others are not tried.
+
+    Returns the placement (4, 4) and, when the chosen candidate's relaxation converged
+    (so the coarse start would compute the same), its coarse grid and positions (cuv, x).
     """
     from design.mattress import Mattress, triangulate_mattress
 
@@ -349,28 +355,30 @@ def _best_placement(target, projector, width, height, *, spacing, k, stall, ande
     prob = _Problem(cuv, cfaces, projector, *k)
     d1, d2 = cuv[cfaces[:, 1]] - cuv[cfaces[:, 0]], cuv[cfaces[:, 2]] - cuv[cfaces[:, 0]]
     area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-    best, best_share = candidates[0], np.inf
+    best, best_share, settled = candidates[0], np.inf, None
     for i, mat in enumerate(candidates):
-        x, *_ = _iterate(prob, apply_placement(mat, cuv), tol=COARSE_TOL, stall=stall,
-                         max_iter=PLACEMENT_ITER, window=anderson, bar=None)
+        x, _, status, *_ = _iterate(prob, apply_placement(mat, cuv), tol=COARSE_TOL, stall=stall,
+                                    max_iter=PLACEMENT_ITER, window=anderson, bar=None)
         near = projector.closest(x)
         off = near.on_rim & (near.distance > OFF_TARGET * prob.h)
         share = float(area @ off[cfaces].mean(axis=1) / area.sum())
         log.debug("placement candidate %d (u axis %s): %.1f %% of Ω off S after a coarse relaxation",
                   i, np.round(mat[:3, 0], 3), 100 * share)
         if share < best_share - PLACEMENT_MARGIN:
-            best, best_share = mat, share
+            best, best_share, settled = mat, share, (cuv, x) if status != "max_iter" else None
         if best_share <= PLACEMENT_MARGIN:
             break
-    return best
+    return best, settled
 
 
-def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, anderson):
+def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, anderson, settled=None):
     """Start positions (n, 3) for the mesh ``uv`` from Ŝ solved on coarser grids of Ω.
 
     Wrapping a fine flat mesh around a strongly curved S in one go can crumple it;
     a coarse grid wraps cleanly, and each finer grid starts from the coarser Ŝ
-    (interpolated linearly over Ω), so it only needs to settle.
+    (interpolated linearly over Ω), so it only needs to settle. ``settled`` (cuv, x):
+    the coarsest grid already solved from ``mat`` (by the placement choice), used when
+    its grid is the coarsest level's.
     """
     from scipy.interpolate import LinearNDInterpolator
 
@@ -383,6 +391,9 @@ def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, an
         cuv, cfaces = triangulate_mattress(mattress, spacing=spacing * 2**level)
         x = (apply_placement(mat, cuv) if prev_uv is None
              else projector.closest_extended(LinearNDInterpolator(prev_uv, prev_x)(cuv)).points)
+        if prev_uv is None and settled is not None and np.array_equal(settled[0], cuv):
+            prev_uv, prev_x = settled
+            continue
         prob = _Problem(cuv, cfaces, projector, *k)
         x, it, status, residual, _ = _iterate(prob, x, tol=COARSE_TOL, stall=stall, max_iter=max_iter,
                                               window=anderson, bar=None)
