@@ -7,6 +7,12 @@ closest triangle, and the closest point on that triangle is then computed
 in float64 (trimesh.triangles.closest_point, vectorized), so distances and
 energies are smooth to double precision, which the relaxation's energy
 safeguard needs.
+
+S usually ends at a rim (its boundary edges). :meth:`MeshProjector.closest_extended`
+continues S across the rim by the tangent plane of the rim face: where
+the closest point of S lies on the rim, the point is projected onto that
+face's plane instead (the relaxation's A2 then pulls a mattress that
+overhangs S only along the rim face's normal, not back onto the rim).
 """
 
 from __future__ import annotations
@@ -15,8 +21,18 @@ from dataclasses import dataclass
 
 import numpy as np
 from trimesh.triangles import closest_point as closest_point_on_triangles
+from trimesh.triangles import points_to_barycentric
+
+from airmat.geometry.topology import boundary_face_flags
 
 __all__ = ["ClosestPoints", "MeshProjector"]
+
+#: a closest point nearer than this (in mean edge lengths of the mesh) to a rim edge or rim vertex
+#: of its triangle is on the rim. Generous on purpose: open3d finds the closest triangle in
+#: float32 and among near-ties (feet within ~1e-4 m of an edge) may return a neighbour, so the
+#: foot can sit that far beside the rim vertex; and flagging a point inside the rim costs nothing
+#: (its foot on its own triangle is its projection onto that triangle's plane).
+RIM_TOL = 0.05
 
 
 @dataclass(frozen=True)
@@ -33,12 +49,16 @@ class ClosestPoints:
         Unit normal of that triangle (from its winding).
     distance : ndarray of shape (k,)
         Distance (m) from each query point to its closest point.
+    on_rim : ndarray of shape (k,), bool
+        Whether the closest point of the mesh lies on its boundary (a rim edge or
+        rim vertex): the query point is beyond the rim or level with it.
     """
 
     points: np.ndarray
     face: np.ndarray
     normal: np.ndarray
     distance: np.ndarray
+    on_rim: np.ndarray
 
 
 class MeshProjector:
@@ -60,6 +80,13 @@ class MeshProjector:
     >>> proj = MeshProjector(V, np.array([[0, 1, 2]]))
     >>> proj.closest(np.array([[0.2, 0.2, 0.5]])).points.round(6).tolist()
     [[0.2, 0.2, 0.0]]
+
+    Beyond the rim, :meth:`closest_extended` continues the triangle by its plane:
+
+    >>> proj.closest(np.array([[2.0, -0.5, 0.5]])).points.round(6).tolist()
+    [[1.0, 0.0, 0.0]]
+    >>> proj.closest_extended(np.array([[2.0, -0.5, 0.5]])).points.round(6).tolist()
+    [[2.0, -0.5, 0.0]]
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, threads: int = 1):
@@ -74,6 +101,15 @@ class MeshProjector:
                                   o3d.core.Tensor(self._faces.astype(np.uint32)))
         self._o3d = o3d
         self._threads = int(threads)
+        cross = np.cross(vertices[self._faces[:, 1]] - vertices[self._faces[:, 0]],
+                         vertices[self._faces[:, 2]] - vertices[self._faces[:, 0]])
+        self._unit_normal = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
+        self._rim_edge, self._rim_vertex = boundary_face_flags(self._faces, len(vertices))
+        tri = vertices[self._faces]
+        side = np.linalg.norm(tri[:, [2, 0, 1]] - tri[:, [1, 2, 0]], axis=2)   # side opposite corner i
+        # altitude onto the side opposite corner i: the distance per unit of barycentric coordinate i
+        self._altitude = np.linalg.norm(cross, axis=1)[:, None] / np.maximum(side, 1e-300)
+        self._rim_tol = RIM_TOL * float(side.mean())
 
     def closest(self, points: np.ndarray) -> ClosestPoints:
         """Closest points on the mesh to ``points`` (k, 3) (m)."""
@@ -83,11 +119,52 @@ class MeshProjector:
         face = ans["primitive_ids"].numpy().astype(np.int64)
         bad = (face < 0) | (face >= len(self._faces))   # open3d's invalid id (NaN queries)
         face[bad] = 0
-        cp = closest_point_on_triangles(self._vertices[self._faces[face]], points)
+        tri = self._vertices[self._faces[face]]
+        cp = closest_point_on_triangles(tri, points)
         cp[bad] = np.nan
         return ClosestPoints(points=cp, face=face,
                              normal=ans["primitive_normals"].numpy().astype(float),
-                             distance=np.linalg.norm(cp - points, axis=1))
+                             distance=np.linalg.norm(cp - points, axis=1),
+                             on_rim=self._on_rim(tri, face, cp))
+
+    def _on_rim(self, tri, face, cp):
+        """Whether each closest point ``cp`` (k, 3) on triangle ``face`` (k,) lies on the mesh's rim."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            bary = points_to_barycentric(tri, cp)
+        on_edge = (bary * self._altitude[face] < self._rim_tol) & self._rim_edge[face]
+        at_vertex = ((np.linalg.norm(tri - cp[:, None], axis=2) < self._rim_tol)
+                     & self._rim_vertex[self._faces[face]])
+        return (on_edge | at_vertex).any(axis=1)
+
+    def closest_extended(self, points: np.ndarray) -> ClosestPoints:
+        """Closest points on the mesh continued across its rim by the rim faces' tangent planes.
+
+        Where the closest point of the mesh lies on its rim (``on_rim``), it is replaced by the
+        projection of the query point onto the plane of the rim face it lies on; elsewhere it is
+        :meth:`closest`'s point. So a point beyond the rim is moved only along that face's
+        normal. Continuous across the rim: a point level with the rim edge projects onto it.
+
+        Parameters
+        ----------
+        points : ndarray of shape (k, 3)
+            Query points (m).
+
+        Returns
+        -------
+        ClosestPoints
+            ``points`` the closest points on the extended surface, ``distance`` the distance
+            to them (m); ``face``, ``normal`` and ``on_rim`` as from :meth:`closest`.
+        """
+        points = np.asarray(points, dtype=float)
+        near = self.closest(points)
+        rim = near.on_rim
+        if not rim.any():
+            return near
+        cp = near.points.copy()
+        n = self._unit_normal[near.face[rim]]
+        cp[rim] = points[rim] - n * np.einsum("ij,ij->i", points[rim] - near.points[rim], n)[:, None]
+        return ClosestPoints(points=cp, face=near.face, normal=near.normal,
+                             distance=np.linalg.norm(cp - points, axis=1), on_rim=rim)
 
     def first_hit(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """Distance along each ray to the first hit (inf on a miss), shape (k,).

@@ -5,6 +5,9 @@ is neither stretched nor compressed). Ŝ is declared unconstructible when
 some σ leaves the tolerance band (the mattress cannot stretch, and can
 contract only a little) or some |κ| exceeds what a string can produce with
 the calibration (Equation 3 at l = 0: :func:`calib.model.kappa_max`).
+Part of Ω lying beyond the target's rim (a target that does not cover the
+mattress; Ŝ continues S by its tangent plane there) is reported as a
+warning, not a reason: the mattress can make that Ŝ, it is just not all S.
 Locations are given in millimetres on Ω. Units: m and 1/m inside.
 """
 
@@ -14,7 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from airmat.errors import InputError
 from airmat.geometry.topology import mesh_edges
+from design.relax import OFF_TARGET
 
 __all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX"]
 
@@ -47,6 +52,12 @@ class ConstructibilityReport:
         The tolerance band used for σ.
     kappa_max : float
         The reachable curvature used (1/m).
+    off_target : dict
+        ``share``: the share of Ω's area lying beyond S's rim (vertices further than
+        0.1 mean edge lengths beyond it), and ``max``: the largest distance (m) of a vertex
+        of Ŝ beyond the rim; both 0 when S covers the mattress (or nothing was given).
+    warnings : list of str
+        What the verdict does not count but a designer should know (Ω off S), with where.
     """
 
     sigma: dict
@@ -56,6 +67,8 @@ class ConstructibilityReport:
     reasons: list = field(default_factory=list)
     sigma_band: tuple = (0.9, 1.1)
     kappa_max: float = PAPER_KAPPA_MAX
+    off_target: dict = field(default_factory=lambda: {"share": 0.0, "max": 0.0})
+    warnings: list = field(default_factory=list)
 
     def table_row(self) -> str:
         """``σ min/avg/max | |κ1| avg // max | |κ2| avg // max`` as one Markdown table row body."""
@@ -88,7 +101,7 @@ def _where(points_mm):
 
 
 def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
-                     kappa_max: float | None = None) -> ConstructibilityReport:
+                     kappa_max: float | None = None, off_target=None) -> ConstructibilityReport:
     """Table-1 figures of Ŝ and whether the mattress can make it.
 
     Parameters
@@ -107,6 +120,9 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
         own saddle. Tighten it when the membrane is known not to stretch.
     kappa_max : float, optional
         Reachable curvature (1/m); default the paper's calibration, 15.66 1/m.
+    off_target : ndarray of shape (n,), optional
+        Distance (m) of each vertex of Ŝ beyond S's rim, 0 on S
+        (design.relax.RelaxResult.off_target); reported as a warning.
 
     Returns
     -------
@@ -131,9 +147,28 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
         i = int(np.argmax(absk.max(axis=1)))
         reasons.append(f"|κ| = {absk[i].max():.1f} 1/m at {_where(1e3 * uv[i])} exceeds the reachable "
                        f"{kappa_max:.2f} 1/m ({int(over.sum())} of {len(uv)} vertices)")
+    off, warnings = _off_target(off_target, uv, edges, area)
     return ConstructibilityReport(
         sigma={"min": float(sig.min()), "avg": float(sig.mean()), "max": float(sig.max())},
         kappa1={"avg": float(area @ absk[:, 0] / area.sum()), "max": float(absk[:, 0].max())},
         kappa2={"avg": float(area @ absk[:, 1] / area.sum()), "max": float(absk[:, 1].max())},
         constructible=not reasons, reasons=reasons, sigma_band=(float(lo), float(hi)),
-        kappa_max=kappa_max)
+        kappa_max=kappa_max, off_target=off, warnings=warnings)
+
+
+def _off_target(dist, uv, edges, area):
+    """Share of Ω's area beyond S's rim, the largest distance (m) beyond it, and the warning."""
+    if dist is None:
+        return {"share": 0.0, "max": 0.0}, []
+    dist = np.asarray(dist, dtype=float)
+    if dist.shape != (len(uv),):
+        raise InputError(f"off_target has shape {dist.shape}, expected ({len(uv)},)")
+    h = np.linalg.norm(uv[edges[:, 0]] - uv[edges[:, 1]], axis=1).mean()
+    off = dist > OFF_TARGET * h
+    if not off.any():
+        return {"share": 0.0, "max": 0.0}, []
+    share, i = float(area @ off / area.sum()), int(np.argmax(dist))
+    return {"share": share, "max": float(dist[i])}, [
+        f"{100 * share:.1f} % of Ω lies beyond the target's rim, up to {1e3 * dist[i]:.0f} mm at "
+        f"{_where(1e3 * uv[i])} ({int(off.sum())} of {len(uv)} vertices): Ŝ continues the target "
+        f"by its tangent plane there"]

@@ -55,7 +55,10 @@ def report_dict(report) -> dict:
             "kappa2_per_m": _rounded(report.kappa2, 4), "constructible": bool(report.constructible),
             "reasons": [str(r) for r in report.reasons],
             "sigma_band": [float(b) for b in report.sigma_band],
-            "kappa_max_per_m": round(float(report.kappa_max), 4)}
+            "kappa_max_per_m": round(float(report.kappa_max), 4),
+            "off_target": {"share": round(float(report.off_target["share"]), 4),
+                           "max_mm": round(float(report.off_target["max"]) / MM, 2)},
+            "warnings": [str(w) for w in report.warnings]}
 
 
 def _write_samples(path: Path, calibration: CalibrationSource) -> None:
@@ -203,7 +206,10 @@ def _report(doc: dict, path: Path) -> ConstructibilityReport | None:
             sigma=dict(r["sigma"]), kappa1=dict(r["kappa1_per_m"]), kappa2=dict(r["kappa2_per_m"]),
             constructible=bool(r["constructible"]), reasons=list(r.get("reasons", [])),
             sigma_band=tuple(r.get("sigma_band", (0.9, 1.1))),
-            **({"kappa_max": float(r["kappa_max_per_m"])} if "kappa_max_per_m" in r else {}))
+            **({"kappa_max": float(r["kappa_max_per_m"])} if "kappa_max_per_m" in r else {}),
+            **({"off_target": {"share": float(r["off_target"]["share"]), "max": r["off_target"]["max_mm"] * MM}}
+               if "off_target" in r else {}),
+            warnings=list(r.get("warnings", [])))
     except (KeyError, TypeError, ValueError) as err:
         raise InputError(f"report lacks field {err}", path=path) from None
 

@@ -5,7 +5,11 @@ A placement is a 4 × 4 homogeneous matrix ``T`` taking a point (u, v, 0) of
 laid flat on S's principal plane: centred on S, its long side along S's
 longest direction (PCA of S's area-weighted face centroids), its top
 normal on the side S's face normals point to, and touching S where the
-normal axis through S's centroid meets it.
+normal axis through S's centroid meets it. :func:`candidate_placements`
+adds that placement turned by 90°, 180° and 270° about the normal, for a
+caller (design.relax) that keeps the one S accommodates best: S's longest
+straight extent is not always its longest unrolled one (a cylinder with
+more arc than axis).
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import numpy as np
 
 from airmat.errors import InputError
 
-__all__ = ["auto_placement", "placement_matrix", "apply_placement"]
+__all__ = ["auto_placement", "candidate_placements", "placement_matrix", "apply_placement"]
 
 
 def _pca_frame(target) -> tuple[np.ndarray, np.ndarray]:
@@ -76,6 +80,33 @@ def auto_placement(target, width: float, height: float, *, projector=None) -> np
         centre = projector.closest(mean[None]).points[0]
     rot = np.column_stack([a_u, a_v, n])
     return placement_matrix((centre, rot), width, height)
+
+
+def candidate_placements(target, width: float, height: float, *, projector=None) -> list[np.ndarray]:
+    """:func:`auto_placement` and the same placement turned by 90°, 180° and 270° about its normal.
+
+    Parameters
+    ----------
+    target : design.target.Target
+    width, height : float
+        W and H of Ω (m).
+    projector : design.closest_point.MeshProjector, optional
+        A BVH over the target.
+
+    Returns
+    -------
+    list of ndarray of shape (4, 4)
+        Four placement matrices, :func:`auto_placement` first; all put Ω's centre on the
+        same point of S with the same top normal.
+    """
+    first = auto_placement(target, width, height, projector=projector)
+    centre = apply_placement(first, np.array([[0.5 * width, 0.5 * height]]))[0]
+    u, v, n = first[:3, 0], first[:3, 1], first[:3, 2]
+    out = [first]
+    for c, s in ((0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)):
+        rot = np.column_stack([c * u + s * v, -s * u + c * v, n])
+        out.append(placement_matrix((centre, rot), width, height))
+    return out
 
 
 def placement_matrix(placement, width: float, height: float) -> np.ndarray:

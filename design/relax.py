@@ -5,7 +5,8 @@ The mesh M (Ω's triangulation) starts flat on S and minimises
     U_A = Σ_edges ½ k_A1 (ε − ε0)²  +  Σ_vertices ½ k_A2 ‖x − x_closest‖²  +  Σ_vertices ½ k_A3 ‖x − x_avg‖²
 
 (A1: edges keep their Ω length ε0; A2: vertices move to their closest point
-on S; A3: vertices move toward their neighbours' average, with the cotangent
+on S, where S is continued across its rim by the rim faces' tangent planes,
+design.closest_point.MeshProjector.closest_extended; A3: vertices move toward their neighbours' average, with the cotangent
 weights of flat Ω, so that flat Ω is a rest state of A3). The solver is a
 local-global (projective dynamics) iteration: the local step projects each
 edge onto its rest length and each vertex onto S (one BVH query for all
@@ -15,6 +16,22 @@ Anderson acceleration (design.anderson) speeds it up; an accelerated step
 that raises U_A is replaced by the plain step, so U_A never increases.
 Wrapping a fine flat mesh around a strongly curved S in one go can crumple
 it, so coarser grids of Ω are solved first, each starting the next.
+
+Rim: a target that does not cover the whole mattress leaves some of Ω
+overhanging S. Pulling those vertices to their closest point of S (on its
+rim) would strain Ŝ for nothing (σ far from 1 on a developable S, no
+convergence), so A2 pulls them only along the rim face's normal: S is
+continued by its tangent plane there. Ŝ reports, per vertex, how far it
+lies beyond S (``off_target``).
+
+Placement: unless given, Ω is tried in four orientations on S
+(design.placement.candidate_placements), each relaxed briefly on a coarse
+grid, and the one that leaves the least of Ω off S is kept (the default
+one unless another is clearly better; a target that covers the mattress
+keeps it without trying the others). Lowest U_A is not the criterion: with
+the rim-aware A2 overhanging costs nothing, and with the plain one it
+picked the 90° turn of the vault1 and saddle presets, whose Ŝ is no better
+(the saddle's σ max rose from 1.093 to 1.104).
 
 Stopping rule: the largest unbalanced force on a vertex, |∂U_A/∂x_i|, below
 ``tol`` × k_A1 × h (h the mean edge length): the pull of one edge strained by
@@ -45,7 +62,7 @@ from airmat.progress import progress as progress_bar
 from airmat.progress import progress_enabled
 from design.anderson import AndersonAcceleration
 from design.closest_point import MeshProjector
-from design.placement import apply_placement, auto_placement, placement_matrix
+from design.placement import apply_placement, candidate_placements, placement_matrix
 
 __all__ = ["RelaxResult", "relax_to_target", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
 
@@ -57,6 +74,12 @@ REFERENCE_SPACING = 0.02
 STALL_WINDOW = 50
 #: force tolerance (k_A1·h) of the coarse grids, whose Ŝ is only a start
 COARSE_TOL = 1e-3
+#: iterations of the coarse relaxation that scores a candidate placement
+PLACEMENT_ITER = 100
+#: share of Ω's area by which a candidate placement must beat an earlier one
+PLACEMENT_MARGIN = 0.01
+#: a vertex further beyond S's rim than this (in mean edge lengths) is off S
+OFF_TARGET = 0.1
 
 
 @dataclass(frozen=True)
@@ -81,6 +104,9 @@ class RelaxResult:
         ``mean`` and ``max`` distance (m) from Ŝ's vertices to S.
     placement : ndarray of shape (4, 4)
         The start placement of Ω used (see design.placement).
+    off_target : ndarray of shape (n,)
+        Distance (m) from each vertex of Ŝ to S where its closest point on S lies on S's rim
+        (the vertex overhangs S, A2 only pulls it onto the rim face's tangent plane), else 0.
     """
 
     xyz: np.ndarray
@@ -92,6 +118,7 @@ class RelaxResult:
     distance: dict
     placement: np.ndarray
     history: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    off_target: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
 
 
 def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan") -> sp.csr_matrix:
@@ -136,7 +163,7 @@ def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan")
 class _Problem:
     """U_A's fixed data: the local step (projections) and the prefactorised global step."""
 
-    def __init__(self, uv, faces, projector, k1, k2, k3):
+    def __init__(self, uv, faces, projector, k1, k2, k3, *, extend_rim=True):
         n = len(uv)
         self.edges = mesh_edges(faces)
         self.rest = np.linalg.norm(uv[self.edges[:, 0]] - uv[self.edges[:, 1]], axis=1)
@@ -152,10 +179,12 @@ class _Problem:
         self.solve = factorized(self.gmat)
         self.k = (k1, k2, k3)
         self.projector = projector
+        self.extend_rim = extend_rim
 
     def project(self, x):
-        """Closest points on S, shape (n, 3)."""
-        return self.projector.closest(x).points
+        """A2's targets (n, 3): closest points on S, continued across its rim by tangent planes
+        (``extend_rim``, design.closest_point.MeshProjector.closest_extended) or not."""
+        return (self.projector.closest_extended(x) if self.extend_rim else self.projector.closest(x)).points
 
     def energy(self, x, cp) -> dict:
         k1, k2, k3 = self.k
@@ -193,8 +222,10 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     target : design.target.Target
         The guide surface S (m).
     placement : (4, 4) ndarray or (offset, rotation), optional
-        Where flat Ω starts (design.placement.placement_matrix); default
-        :func:`design.placement.auto_placement`.
+        Where flat Ω starts (design.placement.placement_matrix); default: the one of
+        :func:`design.placement.candidate_placements` that leaves the least of Ω off S
+        after a short coarse relaxation (the first, :func:`design.placement.auto_placement`,
+        unless another one is better by more than 1 % of Ω's area).
     k_a1 : float, default 1.0
         Weight of A1, edges keeping their length (per edge).
     k_a2 : float, default 0.2
@@ -245,16 +276,20 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     lo = uv.min(axis=0)
     width, height = uv.max(axis=0) - lo
     projector = projector or MeshProjector(target.vertices, target.faces)
-    mat = (auto_placement(target, width, height, projector=projector) if placement is None
-           else placement_matrix(placement, width, height))
     prob = _Problem(uv, faces, projector, k_a1, k_a2, k_a3)
     spacing = float(np.median(prob.rest))
-    levels = _coarse_levels(spacing, width, height) if levels is None else int(levels)
     t0 = time.perf_counter()
+    settled = None   # the chosen candidate's coarse Ŝ, when its scoring relaxation converged
+    if placement is None:
+        mat, settled = _best_placement(target, projector, width, height, spacing=spacing,
+                                       k=(k_a1, k_a2, k_a3), stall=stall, anderson=anderson)
+    else:
+        mat = placement_matrix(placement, width, height)
+    levels = _coarse_levels(spacing, width, height) if levels is None else int(levels)
     x0 = apply_placement(mat, uv - lo)
     if levels:
         x0 = _coarse_start(uv - lo, mat, projector, spacing=spacing, levels=levels, k=(k_a1, k_a2, k_a3),
-                           stall=stall, max_iter=max_iter, anderson=anderson)
+                           stall=stall, max_iter=max_iter, anderson=anderson, settled=settled)
     bar = progress_bar(total=max_iter, desc="relax Ŝ", unit="it") if progress and progress_enabled() else None
     try:
         x, it, status, residual, history = _iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
@@ -264,15 +299,17 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
             bar.close()
     converged = status != "max_iter"
     closest = projector.closest(x)
-    energy = prob.energy(x, closest.points)
+    energy = prob.energy(x, prob.project(x))
+    off_target = np.where(closest.on_rim, closest.distance, 0.0)
     msg = {"force": f"converged in {it} iterations (largest force {residual:.2g} k_A1·h)",
            "stall": f"converged in {it} iterations: U_A stationary (changed < {stall:g} in "
                     f"{STALL_WINDOW} iterations) with the largest force {residual:.2g} k_A1·h above "
                     f"tol {tol:g} (a coarse target mesh or folds in Ŝ keep it from 0)",
            "max_iter": f"not converged after {it} iterations (largest force {residual:.2g} k_A1·h, "
                        f"tol {tol:g})"}[status]
-    log.info("U_A relaxation %s, %.2f s; distance to S mean %.2f mm, max %.2f mm", msg,
-             time.perf_counter() - t0, 1e3 * closest.distance.mean(), 1e3 * closest.distance.max())
+    log.info("U_A relaxation %s, %.2f s; distance to S mean %.2f mm, max %.2f mm (%d of %d vertices "
+             "beyond S's rim)", msg, time.perf_counter() - t0, 1e3 * closest.distance.mean(),
+             1e3 * closest.distance.max(), int(np.count_nonzero(off_target > OFF_TARGET * prob.h)), len(x))
     if not converged:
         if strict:
             raise ConvergenceError(f"U_A relaxation {msg}", n_iter=it, residual=residual)
@@ -280,7 +317,7 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     return RelaxResult(xyz=x, converged=converged, n_iter=it, residual=residual, message=msg,
                        energy=energy, placement=mat,
                        distance={"mean": float(closest.distance.mean()), "max": float(closest.distance.max())},
-                       history=np.asarray(history))
+                       history=np.asarray(history), off_target=off_target)
 
 
 def _coarse_levels(h, width, height):
@@ -291,12 +328,49 @@ def _coarse_levels(h, width, height):
     return n
 
 
-def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, anderson):
+def _best_placement(target, projector, width, height, *, spacing, k, stall, anderson):
+    """The candidate placement (design.placement.candidate_placements) that S covers best.
+
+    Each candidate is relaxed for at most PLACEMENT_ITER iterations on the coarsest grid
+    of the coarse start; its score is the share of Ω's area then beyond S's rim. The first
+    candidate (the default) is kept unless another one leaves more than PLACEMENT_MARGIN
+    less of Ω off S; when nothing of it is off S, the others are not tried.
+
+    Returns the placement (4, 4) and, when the chosen candidate's relaxation converged
+    (so the coarse start would compute the same), its coarse grid and positions (cuv, x).
+    """
+    from design.mattress import Mattress, triangulate_mattress
+
+    candidates = candidate_placements(target, width, height, projector=projector)
+    coarse = spacing * 2 ** _coarse_levels(spacing, width, height)
+    cuv, cfaces = triangulate_mattress(Mattress(float(width), float(height)), spacing=coarse)
+    prob = _Problem(cuv, cfaces, projector, *k)
+    d1, d2 = cuv[cfaces[:, 1]] - cuv[cfaces[:, 0]], cuv[cfaces[:, 2]] - cuv[cfaces[:, 0]]
+    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    best, best_share, settled = candidates[0], np.inf, None
+    for i, mat in enumerate(candidates):
+        x, _, status, *_ = _iterate(prob, apply_placement(mat, cuv), tol=COARSE_TOL, stall=stall,
+                                    max_iter=PLACEMENT_ITER, window=anderson, bar=None)
+        near = projector.closest(x)
+        off = near.on_rim & (near.distance > OFF_TARGET * prob.h)
+        share = float(area @ off[cfaces].mean(axis=1) / area.sum())
+        log.debug("placement candidate %d (u axis %s): %.1f %% of Ω off S after a coarse relaxation",
+                  i, np.round(mat[:3, 0], 3), 100 * share)
+        if share < best_share - PLACEMENT_MARGIN:
+            best, best_share, settled = mat, share, (cuv, x) if status != "max_iter" else None
+        if best_share <= PLACEMENT_MARGIN:
+            break
+    return best, settled
+
+
+def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, anderson, settled=None):
     """Start positions (n, 3) for the mesh ``uv`` from Ŝ solved on coarser grids of Ω.
 
     Wrapping a fine flat mesh around a strongly curved S in one go can crumple it;
     a coarse grid wraps cleanly, and each finer grid starts from the coarser Ŝ
-    (interpolated linearly over Ω), so it only needs to settle.
+    (interpolated linearly over Ω), so it only needs to settle. ``settled`` (cuv, x):
+    the coarsest grid already solved from ``mat`` (by the placement choice), used when
+    its grid is the coarsest level's.
     """
     from scipy.interpolate import LinearNDInterpolator
 
@@ -308,15 +382,18 @@ def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, an
     for level in range(levels, 0, -1):
         cuv, cfaces = triangulate_mattress(mattress, spacing=spacing * 2**level)
         x = (apply_placement(mat, cuv) if prev_uv is None
-             else projector.closest(LinearNDInterpolator(prev_uv, prev_x)(cuv)).points)
+             else projector.closest_extended(LinearNDInterpolator(prev_uv, prev_x)(cuv)).points)
+        if prev_uv is None and settled is not None and np.array_equal(settled[0], cuv):
+            prev_uv, prev_x = settled
+            continue
         prob = _Problem(cuv, cfaces, projector, *k)
         x, it, status, residual, _ = _iterate(prob, x, tol=COARSE_TOL, stall=stall, max_iter=max_iter,
                                               window=anderson, bar=None)
         log.debug("coarse level %d (%.0f mm): %s after %d iterations, force %.2g", level,
                   1e3 * prob.h, status, it, residual)
         prev_uv, prev_x = cuv, x
-    # the coarse grid is a polyhedron: put the fine vertices back onto S
-    return projector.closest(LinearNDInterpolator(prev_uv, prev_x)(uv)).points
+    # the coarse grid is a polyhedron: put the fine vertices back onto S (or its continuation)
+    return projector.closest_extended(LinearNDInterpolator(prev_uv, prev_x)(uv)).points
 
 
 def _iterate(prob: _Problem, x, *, tol, stall, max_iter, window, bar):

@@ -129,8 +129,11 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
     curv = principal_curvature(relax.xyz, faces, radius=curvature_radius)
     timings["curvature"] = time.perf_counter() - t
     t = time.perf_counter()
-    report = constructibility(relax.xyz, uv, faces, curv.kappa, sigma_band=sigma_band, kappa_max=kappa_max)
+    report = constructibility(relax.xyz, uv, faces, curv.kappa, sigma_band=sigma_band, kappa_max=kappa_max,
+                              off_target=relax.off_target)
     timings["report"] = time.perf_counter() - t
+    for warning in report.warnings:
+        log.warning("Ŝ of %s: %s", target.name, warning)
     if not report.constructible:
         log.warning("Ŝ of %s is not constructible: %s", target.name, "; ".join(report.reasons))
     return ApproxSurface(target=target, mattress=mattress, xyz=relax.xyz, uv=uv, faces=faces, relax=relax,

@@ -112,6 +112,7 @@ def summary_text(doc: dict, out) -> str:
     lines.append(f"  sigma min/avg/max {sg['min']:.4f} / {sg['avg']:.4f} / {sg['max']:.4f}; "
                  f"|k1| avg/max {k1['avg']:.2f} / {k1['max']:.2f} 1/m; |k2| avg/max {k2['avg']:.2f} / "
                  f"{k2['max']:.2f} 1/m")
+    lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
     lines.append("  constructible: yes" if r["constructible"] else
                  "  constructible: NO: " + "; ".join(r["reasons"]))
     flagged = sum(1 for d in doc["dashes"] if "beyond_reach" in d["flags"])

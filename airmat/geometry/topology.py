@@ -11,7 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 
 __all__ = ["face_edges", "mesh_edges", "boundary_edge_mask", "boundary_vertex_mask", "boundary_vertices",
-           "cotangent_matrix", "cotangent_umbrella"]
+           "boundary_face_flags", "cotangent_matrix", "cotangent_umbrella"]
 
 
 def face_edges(faces: np.ndarray) -> np.ndarray:
@@ -69,6 +69,32 @@ def boundary_vertices(faces: np.ndarray) -> np.ndarray:
     [1, 2, 3]
     """
     return np.unique(mesh_edges(faces)[boundary_edge_mask(faces)])
+
+
+def boundary_face_flags(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Boundary flags per face corner and per vertex.
+
+    Returns
+    -------
+    face_flags : ndarray of shape (m, 3), bool
+        Whether the edge opposite corner i of each face is a boundary edge (in one face only).
+    vertex_flags : ndarray of shape (n,), bool
+        Whether each vertex lies on such an edge.
+
+    Examples
+    --------
+    >>> f, v = boundary_face_flags(np.array([[0, 1, 2], [0, 2, 3]]), 4)
+    >>> f.tolist(), v.tolist()
+    ([[True, False, True], [True, True, False]], [True, True, True, True])
+    """
+    # edge opposite corner i: (i+1, i+2), as one integer key per edge (1-D unique is fast)
+    opposite = np.sort(np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1), axis=2)
+    key = opposite[..., 0] * np.int64(n_vertices) + opposite[..., 1]
+    _, inverse, counts = np.unique(key.ravel(), return_inverse=True, return_counts=True)
+    rim_edge = (counts[inverse] == 1).reshape(-1, 3)
+    rim_vertex = np.zeros(n_vertices, bool)
+    rim_vertex[opposite[rim_edge].ravel()] = True
+    return rim_edge, rim_vertex
 
 
 def cotangent_matrix(uv: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:

@@ -96,3 +96,23 @@ def test_triangulation_refuses_bad_spacing(kw):
 def test_mattress_refuses_bad_sizes(size):
     with pytest.raises(InputError, match="mattress"):
         Mattress(*size)
+
+
+def test_omega_off_the_target_is_a_warning_not_a_reason(omega):
+    uv, faces = omega
+    xyz = np.column_stack([uv, np.zeros(len(uv))])
+    # the strip u > 0.5 m (the last 100 mm of 600) lies beyond the target's rim, by u - 0.5 m
+    off = np.clip(uv[:, 0] - 0.5, 0, None)
+    rep = constructibility(xyz, uv, faces, np.zeros((len(uv), 2)), off_target=off)
+    assert rep.constructible and rep.reasons == []
+    # the vertex columns u = 0.55 and 0.6 m are off: their areas are strips 50 and 25 mm wide
+    assert rep.off_target["share"] == pytest.approx((0.05 + 0.025) / 0.6)
+    assert rep.off_target["max"] == pytest.approx(0.1)
+    assert len(rep.warnings) == 1
+    assert "12.5 % of Ω lies beyond the target's rim, up to 100 mm at (600, " in rep.warnings[0]
+    # nothing off the target (or not told): no warning
+    for given in (np.zeros(len(uv)), None):
+        rep = constructibility(xyz, uv, faces, np.zeros((len(uv), 2)), off_target=given)
+        assert rep.off_target == {"share": 0.0, "max": 0.0} and rep.warnings == []
+    with pytest.raises(InputError, match="off_target"):
+        constructibility(xyz, uv, faces, np.zeros((len(uv), 2)), off_target=off[:-1])

@@ -41,6 +41,9 @@ def test_round_trip_within_the_files_precision(vault):
         assert back.approx.report.kappa1.get(key, 0) == pytest.approx(result.approx.report.kappa1.get(key, 0),
                                                                       abs=1e-4)
     assert back.approx.report.constructible == result.approx.report.constructible
+    assert back.approx.report.warnings == result.approx.report.warnings
+    assert back.approx.report.off_target["share"] == pytest.approx(result.approx.report.off_target["share"],
+                                                                   abs=5e-5)
     # the strings: 0.01 mm in design.json, kappa to 1e-4 1/m
     assert len(back.pattern.strings) == len(result.pattern.strings) > 0
     for s, t in zip(back.pattern.strings, result.pattern.strings):

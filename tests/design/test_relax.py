@@ -11,7 +11,7 @@ from data_synthetic.targets import cylinder
 from design.closest_point import MeshProjector
 from design.constructibility import edge_sigma
 from design.mattress import Mattress, triangulate_mattress
-from design.placement import auto_placement, placement_matrix
+from design.placement import auto_placement, candidate_placements, placement_matrix
 from design.relax import relax_to_target, umbrella_operator
 from design.target import Target
 
@@ -139,3 +139,38 @@ def test_mesh_spacing_does_not_change_the_result(cyl):
     dist, idx = cKDTree(fine[0]).query(coarse[0])
     assert dist.max() < 1e-12
     assert np.abs(b.xyz[idx] - a.xyz).max() < 1e-3
+
+
+def test_candidate_placements_are_the_default_turned_about_its_normal(cyl):
+    w, h = 0.5, 0.4
+    cands = candidate_placements(Target.from_mesh(cyl), w, h)
+    assert len(cands) == 4 and np.array_equal(cands[0], auto_placement(Target.from_mesh(cyl), w, h))
+    centres = [c[:3, :3] @ [w / 2, h / 2, 0] + c[:3, 3] for c in cands]
+    assert np.allclose(centres, centres[0], atol=1e-12)
+    for k, c in enumerate(cands):
+        assert np.allclose(c[:3, 2], cands[0][:3, 2], atol=1e-12)            # same top normal
+        turn = np.arctan2(c[:3, 0] @ cands[0][:3, 1], c[:3, 0] @ cands[0][:3, 0])
+        assert np.degrees(turn) % 360 == pytest.approx(90 * k, abs=1e-9)
+
+
+def test_placement_turns_to_the_orientation_the_target_covers():
+    """850 mm of arc, 760 mm of axis: the longest straight extent is the axis, but only the
+    mattress's long side (830 mm) around the arc keeps it all on S."""
+    surf = cylinder(0.3, length=0.76, arc=0.85, spacing=0.01)
+    uv, faces = triangulate_mattress(Mattress(0.83, 0.74), spacing=0.04)
+    default = auto_placement(Target.from_mesh(surf), 0.83, 0.74)
+    assert abs(default[0, 0]) == pytest.approx(1, abs=1e-9)                 # u along the axis (x)
+    res = relax_to_target(uv, faces, Target.from_mesh(surf), progress=False)
+    assert abs(res.placement[1, 0]) == pytest.approx(1, abs=1e-9)           # u around the arc (y)
+    assert res.converged and res.n_iter < 100 and not res.off_target.any()
+    _, sigma = edge_sigma(res.xyz, uv, faces)
+    assert np.abs(sigma - 1).max() < 2e-3
+    # the default placement, now relaxed rim-aware, overhangs the axis ends but is not strained
+    turned_back = relax_to_target(uv, faces, Target.from_mesh(surf), placement=default, progress=False)
+    assert turned_back.off_target.max() > 0.02
+    assert np.abs(edge_sigma(turned_back.xyz, uv, faces)[1] - 1).max() < 5e-3
+
+
+def test_a_covering_target_keeps_the_default_placement(relaxed, cyl):
+    assert np.array_equal(relaxed.placement, auto_placement(Target.from_mesh(cyl), 0.5, 0.4))
+    assert not relaxed.off_target.any()
