@@ -44,8 +44,16 @@ class DesignParams:
     ----------
     L : float or None
         Geodesic spacing of string ends; None: the calibration's L (paper: 0.30 m).
-    mu1, mu2 : float
-        Dash period along a line and spacing of lines (m), paper §3.3.1.
+    mu1 : float or None
+        Dash period along a line (m), paper §3.3.1; None: L, dashes end to end.
+    mu2 : float
+        Spacing of neighbouring lines (m), paper §3.3.1.
+
+    The defaults (μ₁ = L, μ₂ = 50 mm) come from a measured table of pattern
+    density against deviation (``bench/bench_density.py``, README): the paper's
+    sparser μ₁ = 400, μ₂ = 100 mm left bands of the mattress unstrung and landed
+    2.1-2.9 % of the diagonal from Ŝ, the denser pattern 0.8-1.4 % on the
+    constructible presets but the saddle.
     margin : float
         Dashes stay this far inside the mattress edge (m).
     step : float or None
@@ -64,8 +72,8 @@ class DesignParams:
     """
 
     L: float | None = None
-    mu1: float = 0.40
-    mu2: float = 0.10
+    mu1: float | None = None
+    mu2: float = 0.05
     margin: float = 0.03
     step: float | None = None
     spacing: float = 0.02
@@ -84,13 +92,13 @@ class DesignParams:
 
     def stripe_params(self, L: float) -> StripeParams:
         """The stripe tracer's parameters, with L resolved."""
-        return StripeParams(L=L, mu1=self.mu1, mu2=self.mu2, margin=self.margin, step=self.step,
+        return StripeParams(L=L, mu1=L if self.mu1 is None else self.mu1, mu2=self.mu2, margin=self.margin, step=self.step,
                             kappa_min=self.kappa_min, weight_min=self.weight_min)
 
     def file_dict(self, L: float) -> dict:
         """The parameters as written to design.json (mm, 1/m)."""
         sp, mm = self.stripe_params(L), _mm
-        return {"L_mm": mm(L), "mu1_mm": mm(self.mu1), "mu2_mm": mm(self.mu2), "margin_mm": mm(self.margin),
+        return {"L_mm": mm(L), "mu1_mm": mm(sp.mu1), "mu2_mm": mm(self.mu2), "margin_mm": mm(self.margin),
                 "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), **self.weights(),
                 "kappa_min_per_m": self.kappa_min,
                 "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points)}
@@ -175,7 +183,7 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     if calibration is None:
         calibration = default_calibration(seed=seed, d=mattress.thickness)
     L = float(calibration.L if params.L is None else params.L)
-    params = dataclasses.replace(params, L=L)
+    params = dataclasses.replace(params, L=L, mu1=L if params.mu1 is None else params.mu1)
     sp = params.stripe_params(L)
     check_stripe_params(sp, mattress.width, mattress.height)
     reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))

@@ -27,8 +27,10 @@ def add_parser(sub, parents):
                                                          "paper's values are used and outputs say UNCALIBRATED")
     p.add_argument("--L-mm", dest="L_mm", type=float, default=None,
                    help="geodesic spacing of string ends (default: the calibration's, paper 300)")
-    p.add_argument("--mu1-mm", type=float, default=400.0, help="period of the dashes along a line (default 400)")
-    p.add_argument("--mu2-mm", type=float, default=100.0, help="spacing of neighbouring lines (default 100)")
+    p.add_argument("--mu1-mm", type=float, default=None,
+                   help="period of the dashes along a line (default: L, dashes end to end; paper 400)")
+    p.add_argument("--mu2-mm", type=float, default=50.0,
+                   help="spacing of neighbouring lines (default 50; paper 100)")
     p.add_argument("--margin-mm", type=float, default=30.0, help="dashes stay this far from the edge (default 30)")
     p.add_argument("--spacing-mm", type=float, default=20.0, help="mesh spacing of the mattress (default 20)")
     p.add_argument("--step-mm", type=float, default=None, help="line integration step (default min(mu2/10, 10))")
@@ -90,7 +92,7 @@ def _params(args):
             and all(k is None or k >= 0 for k in (args.k_a2, args.k_a3))):
         raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --k-a2 and --k-a3 must be >= 0")
     mm = 1e-3
-    return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=args.mu1_mm * mm,
+    return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=None if args.mu1_mm is None else args.mu1_mm * mm,
                         mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.spacing_mm * mm,
                         step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
