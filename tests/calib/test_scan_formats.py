@@ -135,14 +135,19 @@ def test_pcd_organized_cloud_with_nan(tmp_path, spec):
 def test_unreadable_scan_and_face_index_out_of_range(tmp_path, spec):
     path = tmp_path / "locked.ply"
     write_ply(path, spec.points[:1000] * 1e3)
-    os.chmod(path, 0)
-    try:
-        if os.access(path, os.R_OK):
-            pytest.skip("running as root: permissions are not enforced")
-        with pytest.raises(InputError, match="cannot read"):
+    import builtins
+
+    real_open = builtins.open
+
+    def denied(file, *args, **kw):  # as os.chmod(path, 0) for a non-root user
+        if str(file) == str(path):
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, *args, **kw)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(builtins, "open", denied)
+        with pytest.raises(InputError, match="cannot read: Permission denied"):
             read_scan(path)
-    finally:
-        os.chmod(path, 0o644)
     bad = tmp_path / "faces.ply"
     v = "\n".join(f"{x} {y} {z}" for x, y, z in spec.points[:200] * 1e3)
     bad.write_text("ply\nformat ascii 1.0\nelement vertex 200\nproperty float x\nproperty float y\n"
@@ -167,15 +172,22 @@ def test_tiny_cloud_message_speaks_in_points(spec):
         fit_cylinder(spec.points[:120], seed=0)
 
 
-def test_noise_hint_names_the_option():
-    rng = np.random.default_rng(5)
-    s = specimen_scan(1 / 0.3, n_points=20_000, seed=5)
-    pts = s.points + rng.normal(0, 0.004, s.points.shape) * (rng.random((len(s.points), 1)) < 0.5)
-    try:
-        fit_cylinder(pts, seed=0)
-    except NotACylinderError as err:
-        if "RMS" in str(err):
-            assert "--noise-mm" in str(err)
+def test_noise_hint_names_the_option(spec, monkeypatch):
+    import calib.cylinder_fit as cf
+
+    real = cf.local_noise
+
+    def too_low(*args, **kw):  # the estimate a stereo/RGB-D scan gets: far below its real noise
+        est = real(*args, **kw)
+        return dataclasses.replace(est, sigma=est.sigma / 20)
+
+    monkeypatch.setattr(cf, "local_noise", too_low)
+    with pytest.raises(NotACylinderError, match="estimated noise.*pass --noise-mm"):
+        fit_cylinder(spec.points, seed=0, max_rms_rel=0.0)
+    monkeypatch.setattr(cf, "local_noise", real)
+    with pytest.raises(NotACylinderError) as exc:  # a noise the user gave: no hint to give it
+        fit_cylinder(spec.points, seed=0, noise=1e-5, max_rms_rel=0.0)
+    assert "given noise" in str(exc.value) and "--noise-mm" not in str(exc.value)
 
 
 def test_seed_disagreement_widens_or_refuses(spec, monkeypatch):
