@@ -16,7 +16,14 @@ is timed on them; the table gives wall time and radius error per scan size.
 - ``cylinder_fitting``: cylinder_fitting.fit(points) (Eberly's method, optimizing over
   axis directions in Python): it gets a random subset of ``--cf-points`` points.
 
+With ``--formats N``: an N-point scan written in every scanner format by the
+library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs,
+open3d, trimesh, numpy text layouts), read back with calib.scan_io.read_scan
+(median of 3 reads, after one warm-up read that loads the library), and
+fitted: read time, its ratio to the PLY read, file size and radius error.
+
 Run:  .venv/bin/python bench/bench_cylinder.py --sizes 100000,1000000 --repeats 3
+Formats:  .venv/bin/python bench/bench_cylinder.py --sizes 0 --formats 1000000
 Quick check:  .venv/bin/python bench/bench_cylinder.py --sizes 20000 --repeats 1 --cf-points 200
 Targets (airmat): 1,000,000 points under 1.5 s with radius error < 0.1 %; 100k well under 1 s.
 """
@@ -139,6 +146,43 @@ def run(sizes, repeats, seed, kappa, arc_deg, ransac_points, ransac_iterations, 
     return rows
 
 
+def format_rows(n, seed, kappa, arc_deg, n_reads=3):
+    """[(format, library, read s, read / PLY read, MB, radius error %)] for an n-point scan."""
+    import tempfile
+    from pathlib import Path
+
+    from calib.scan_io import read_scan
+    from data_synthetic.scan_write import FORMATS, write_scan
+
+    library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs", "glb": "trimesh",
+               "ply": "trimesh", "pts": "numpy", "xyz": "numpy", "txt": "numpy"}
+    scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for fmt in ["ply", *sorted(f for f in FORMATS if f != "ply")]:
+            path = write_scan(Path(tmp) / f"scan_{fmt}{FORMATS[fmt]}", scan.points * 1e3, fmt, seed=seed)
+            read_scan(path)  # warm-up: the library's import is start-up, not reading
+            times = []
+            for _ in range(n_reads):
+                t0 = time.perf_counter()
+                got = read_scan(path)
+                times.append(time.perf_counter() - t0)
+            radius = fit_cylinder(got.points, seed=seed, quantization=got.quantization).radius
+            rows.append((fmt, library.get(fmt, "open3d"), float(np.median(times)),
+                         os.path.getsize(path) / 1e6, abs(radius - scan.radius) / scan.radius * 100))
+    t_ply = rows[0][2]
+    return [(f, lib, t, t / t_ply, mb, e) for f, lib, t, mb, e in rows]
+
+
+def format_markdown(rows, n):
+    head = (f"Read time per format, {n:,}-point scan (median of 3 reads after a warm-up; "
+            "radius error of the fit of what was read)\n\n"
+            "| format | library | read (s) | × PLY read | file (MB) | radius error (%) |\n"
+            "|---|---|---:|---:|---:|---:|\n")
+    return head + "".join(f"| {f} | {lib} | {t:.3f} | {r:.2f} | {mb:.1f} | {e:.4f} |\n"
+                          for f, lib, t, r, mb, e in rows)
+
+
 def markdown(rows, repeats, kappa, arc_deg):
     head = (f"Scans: kappa = {kappa:g} 1/m (R = {1e3 / kappa:.0f} mm), {arc_deg:g} deg arc, floor, 5% clutter, "
             f"holes, 4 mm grooves, random pose; {repeats} scan(s) per size (median / worst).\n\n"
@@ -161,12 +205,17 @@ def main(argv=None):
     p.add_argument("--ransac-iterations", type=int, default=200, help="pyransac3d maxIteration")
     p.add_argument("--cf-points", type=int, default=500, help="subset given to cylinder_fitting")
     p.add_argument("--no-peers", action="store_true", help="only airmat and the recipe")
+    p.add_argument("--formats", type=int, default=0, metavar="N",
+                   help="also time reading an N-point scan in every scanner format (0: skip)")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
-    sizes = [int(s) for s in args.sizes.split(",") if s.strip()]
-    rows = run(sizes, args.repeats, args.seed, args.kappa, args.arc_deg, args.ransac_points,
-               args.ransac_iterations, args.cf_points, not args.no_peers)
-    print(markdown(rows, args.repeats, args.kappa, args.arc_deg))
+    sizes = [int(s) for s in args.sizes.split(",") if s.strip() and int(s) > 0]
+    if sizes:
+        rows = run(sizes, args.repeats, args.seed, args.kappa, args.arc_deg, args.ransac_points,
+                   args.ransac_iterations, args.cf_points, not args.no_peers)
+        print(markdown(rows, args.repeats, args.kappa, args.arc_deg))
+    if args.formats:
+        print(format_markdown(format_rows(args.formats, args.seed, args.kappa, args.arc_deg), args.formats))
     return 0
 
 

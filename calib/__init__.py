@@ -3,8 +3,10 @@
 Public API (SI units: metres, 1/m):
 
 - :func:`kappa1`, :func:`string_length` -- Equation 3 and its inverse (``calib.model``).
-- :func:`read_scan` -- PLY/OBJ/STL/OFF scans to points in metres (``calib.scan_io``).
-- :func:`fit_cylinder` -- robust cylinder fit of one scan (``calib.cylinder_fit``).
+- :func:`read_scan` -- E57, LAS/LAZ, PCD, PLY/OBJ/STL/OFF, GLB/glTF, PTS/XYZ/TXT scans to points in
+  metres (``calib.scan_io``; one reader per format in ``calib.scan_readers``).
+- :func:`fit_cylinder` -- robust cylinder fit of one scan (``calib.cylinder_fit``);
+  :func:`fit_cylinder_stable` -- the same, compared over several seeds (``calib.cylinder_stability``).
 - :func:`read_manifest` -- the calibration manifest CSV (``calib.manifest``).
 - :func:`sample_posterior` -- emcee posterior of Delta, d and the scatter sigma (``calib.posterior``).
 - :func:`kappa_curve` -- calibrated kappa_1(l/L) with 68/95% bands (``calib.curve``).
@@ -22,6 +24,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "model": ["bend_angle", "flat_length", "kappa1", "kappa_max", "string_length"],
     "scan_io": ["Scan", "read_scan"],
     "cylinder_fit": ["CylinderFit", "fit_cylinder"],
+    "cylinder_stability": ["fit_cylinder_stable"],
     "manifest": ["Manifest", "read_manifest"],
     "posterior": ["DEFAULT_PRIORS", "Posterior", "Priors", "sample_posterior", "specimen_data"],
     "curve": ["KappaCurve", "kappa_curve"],

@@ -104,7 +104,7 @@ def _reference_face(kappa: float, se: float, offset: float, path: str):
 
 def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options: dict):
     """Read and fit specimen i; returns (SpecimenFit, read seconds, fit seconds)."""
-    from calib.cylinder_fit import fit_cylinder
+    from calib.cylinder_stability import fit_cylinder_stable
     from calib.scan_io import read_scan
 
     path = manifest.scan_paths[i]
@@ -112,11 +112,12 @@ def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options
     scan = read_scan(path, units=scan_units, seed=seed)
     t1 = time.perf_counter()
     try:
-        fit = fit_cylinder(scan.points, seed=seed, **fit_options)
-    except InputError as err:
+        fit = fit_cylinder_stable(scan.points, seed=seed, **{"quantization": scan.quantization, "strict": True,
+                                                              **fit_options})
+    except InputError as err:  # not a cylinder, not converged, unstable: the scan is named
         raise err.with_path(path)
     t2 = time.perf_counter()
-    if not fit.converged:
+    if not fit.converged:  # only with fit_options strict=False
         log.warning("%s: cylinder fit did not converge (%s)", path, fit.message)
     offset = float(manifest.surface_offset[i])
     kappa, se = _reference_face(float(fit.kappa), float(fit.kappa_se), offset, path)
@@ -131,15 +132,15 @@ def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options
     return spec, t1 - t0, t2 - t1
 
 
-def fit_specimens(manifest: Manifest, *, scan_units: str = "mm", seed=0,
+def fit_specimens(manifest: Manifest, *, scan_units: str | None = None, seed=0,
                   fit_options: dict | None = None):
     """Read and fit every scan of a manifest (progress bar on a terminal).
 
     Parameters
     ----------
     manifest : Manifest
-    scan_units : {"m", "mm", "in"}
-        Unit of the scan files' coordinates.
+    scan_units : {"m", "cm", "mm", "in"}, optional
+        Unit of the scan files' coordinates; default: the format's own (m for E57, LAS/LAZ), else mm.
     seed : int
         Seeds the per-scan random steps (mesh sampling, RANSAC).
     fit_options : dict, optional
@@ -176,7 +177,7 @@ def _model_median(samples: np.ndarray, l, L, *, max_draws: int = 2000, seed=0) -
     return np.median(kappa1(l[None, :], L[None, :], samples[:, :1], samples[:, 1:2]), axis=0)
 
 
-def calibrate(manifest, *, scan_units: str = "mm", n_walkers: int = 32, max_steps: int = 4000,
+def calibrate(manifest, *, scan_units: str | None = None, n_walkers: int = 32, max_steps: int = 4000,
               seed: int = 0, priors: Priors = DEFAULT_PRIORS, fit_options: dict | None = None,
               n_grid: int = 101) -> Calibration:
     """Calibrate Equation 3 from the scans listed in a manifest.
@@ -185,7 +186,7 @@ def calibrate(manifest, *, scan_units: str = "mm", n_walkers: int = 32, max_step
     ----------
     manifest : str, PathLike or Manifest
         The manifest CSV (see :mod:`calib.manifest`) or an already read one.
-    scan_units : {"m", "mm", "in"}
+    scan_units : {"m", "cm", "mm", "in"}, optional
         Unit of the scan files.
     n_walkers, max_steps : int
         emcee ensemble size and chain-length cap (:func:`calib.posterior.sample_posterior`).

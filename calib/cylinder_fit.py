@@ -96,6 +96,12 @@ class CylinderFit:
         RMS residual of all inliers, grooves included (m).
     message : str
         The final least squares' message.
+    kappa_spread : float
+        Largest difference of kappa between fits from other seeds
+        (:func:`calib.cylinder_stability.fit_cylinder_stable`), 1/m; 0 when
+        not compared.
+    n_seeds : int
+        Seeds the fit was compared over (1: none).
     """
 
     radius: float
@@ -115,14 +121,16 @@ class CylinderFit:
     n_iter: int
     residual: float
     message: str
+    kappa_spread: float = 0.0
+    n_seeds: int = 1
 
 
 def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fraction: float = 0.5,
                  max_rms_ratio: float = 3.0, max_rms_rel: float = 0.002, inlier_sigmas: float = 3.0,
                  band_sigmas: float = 5.0, max_planarity: float = 0.3, remove_support: bool = True,
                  loss: str = "arctan", loss_sigmas: float = 2.0, groove_sigmas: float = 0.2,
-                 n_subsample: int = 50_000,
-                 n_clusters: int = 24) -> CylinderFit:
+                 n_subsample: int = 50_000, n_clusters: int = 24, quantization: float = 0.0,
+                 strict: bool = False) -> CylinderFit:
     """Fit a cylinder to a scan of a bent specimen, robustly.
 
     Parameters
@@ -165,6 +173,13 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         final pass over every point (speed).
     n_clusters : int
         Arc bins of the cluster-robust standard error.
+    quantization : float
+        Step of the coordinates as the file stored them (m; 32-bit floats
+        far from the origin, :attr:`calib.scan_io.Scan.quantization`):
+        refused when it exceeds the noise, as the surface is then lost.
+    strict : bool
+        Raise :class:`airmat.errors.InputError` when the final least
+        squares did not converge, instead of reporting it in the result.
 
     Returns
     -------
@@ -189,11 +204,15 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
             f"points do not sample a surface: local scatter {est.sigma * 1e3:.3g} mm in "
             f"{est.voxel * 1e3:.3g} mm voxels", roughness=est.roughness)
     noise_level = float(noise) if noise is not None else max(est.sigma, 1e-6 * diag)
+    if quantization > noise_level:
+        raise InputError(f"coordinates lost precision: stored as 32-bit floats far from the origin, their "
+                         f"step {quantization * 1e3:.3g} mm exceeds the scan noise {noise_level * 1e3:.3g} mm "
+                         f"(export in float64 or re-centred)", quantization=quantization, noise=noise_level)
     cand, n_support = specimen_candidates(pts, sub, noise_level, diag, est, rng) if remove_support \
         else (pts, 0)
     cand_sub = cand[rng.choice(len(cand), _SUB, replace=False)] if len(cand) > _SUB else cand
     density = 24.0 / est.voxel**2 * len(pts) / len(sub)  # points per m^2 of surface, full scan
-    init, stage = _start(cand_sub, specimen_voxel(len(cand), len(cand_sub), density, noise_level),
+    init, stage = _start(cand_sub, len(pts), specimen_voxel(len(cand), len(cand_sub), density, noise_level),
                          noise_level, diag, max_planarity, rng)
     # a surface that departs from a cylinder by more than the local noise (a simulated or
     # wrinkled face) sets the scale of the bands and the loss itself
@@ -208,19 +227,25 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     frame, final, used, n_more = full_resolution_fit(
         cand, stage.frame, sigma=sigma, band_sigmas=band_sigmas, loss=loss, f_scale=loss_sigmas * sigma,
         n_subsample=n_subsample, groove_sigmas=groove_sigmas, rng=rng, hold_axis=True if init.flat else None)
-    return _summarize(cand, frame, final, used=used, n_points=len(pts), n_support=n_support,
+    fit = _summarize(cand, frame, final, used=used, n_points=len(pts), n_support=n_support,
                       noise=noise_level, sigma=sigma, n_iter=stage.n_iter + n_more, scatter=init.scatter,
                       inlier_sigmas=inlier_sigmas, min_inlier_fraction=min_inlier_fraction,
                       max_rms_ratio=max_rms_ratio, max_rms_rel=max_rms_rel, loss=loss,
-                      f_scale=loss_sigmas * sigma, n_clusters=n_clusters)
+                      f_scale=loss_sigmas * sigma, n_clusters=n_clusters, noise_given=noise is not None)
+    if strict and not fit.converged:
+        raise InputError(f"cylinder fit did not converge ({fit.message}); the radius would be unreliable",
+                         fit_message=fit.message)
+    return fit
 
 
-def _start(cand_sub, voxel, sigma, diag, max_planarity, rng):
+def _start(cand_sub, n_points, voxel, sigma, diag, max_planarity, rng):
     """Downsample, initialize (axis and circle, or height field) and fit the downsampled cloud."""
     down = voxel_cloud(cand_sub, voxel, min_count=5).points
     if len(down) < MIN_FIT_POINTS:
-        raise NotACylinderError(f"only {len(down)} surface voxels left off the floor plane(s)",
-                                n_points=len(down))
+        raise NotACylinderError(
+            f"too few points on the specimen: {n_points} points, {len(cand_sub)} of them off the floor, "
+            f"fill only {len(down)} surface patches (need {MIN_FIT_POINTS}; a specimen scan has "
+            f"thousands of points)", n_points=n_points)
     init = initial_cylinder(down, normals_knn(down), threshold=max(4 * sigma, 2e-3 * diag),
                             max_planarity=max_planarity, flat_deg=_FLAT_DEG, seed=int(rng.integers(2**31)))
     if init.nearly_flat:  # axis from the height field, held still: Gauss-Newton
@@ -245,13 +270,15 @@ def _check_points(points) -> np.ndarray:
         raise InputError(f"{int(np.count_nonzero(~np.isfinite(pts).all(axis=1)))} points have "
                          f"non-finite coordinates (read_scan drops them)")
     if len(pts) < MIN_FIT_POINTS:
-        raise NotACylinderError(f"only {len(pts)} points (need at least {MIN_FIT_POINTS})",
+        raise NotACylinderError(f"too few points: only {len(pts)} points (need at least {MIN_FIT_POINTS}; "
+                                f"a specimen scan has thousands)",
                                 n_points=len(pts))
     return pts
 
 
 def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n_iter, scatter,
-               inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters):
+               inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters,
+               noise_given=False):
     """Inliers, refusal checks, standard error, arc and centre: the CylinderFit.
 
     ``noise`` is the local noise, ``sigma`` the working residual scale (>= noise), both m.
@@ -270,8 +297,11 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
     inl_sub = cand[inl][::stride]
     ext = float(np.linalg.norm(np.ptp(inl_sub, axis=0)))
     if rms > max_rms_ratio * noise and rms > max_rms_rel * ext:
-        raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {noise * 1e3:.2g} mm noise"
-                                + _why(scatter), rms=rms, noise=noise)
+        hint = "" if noise_given else \
+            f"; if the scanner is noisier than that estimate (stereo, RGB-D), pass --noise-mm {rms * 1e3:.2g}"
+        raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {noise * 1e3:.2g} mm "
+                                f"{'given' if noise_given else 'estimated'} noise" + _why(scatter) + hint,
+                                rms=rms, noise=noise)
     se_iid, se_cl = kappa_standard_error(cand[used], frame, f_scale=f_scale, loss=loss,
                                          n_clusters=n_clusters, state=final.state)
     kappa, se = abs(frame.kappa), max(se_iid, se_cl)

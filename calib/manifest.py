@@ -145,7 +145,11 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
         off = row[col["surface_offset_mm"]] if "surface_offset_mm" in col else ""
         off_mm = _number(off, "surface_offset_mm", line, path) if off else 0.0
         _check_row(line, scan, l_mm, L_mm, path)
-        resolved = (path.parent / scan).resolve()
+        try:
+            resolved = (path.parent / scan).resolve()
+        except (OSError, RuntimeError) as err:  # RuntimeError: a symlink loop (Python < 3.13)
+            raise InputError(f"line {line}: scan {scan!r} cannot be resolved: {err}", path=path,
+                             line=line) from None
         if resolved in seen:
             raise InputError(f"line {line}: scan {scan!r} is listed twice (also on line "
                              f"{seen[resolved]})", path=path, line=line)

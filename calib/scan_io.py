@@ -1,37 +1,43 @@
-"""Read specimen scans: PLY point clouds in any encoding, and PLY/OBJ/STL/OFF meshes.
+"""Read specimen scans in the formats scanners export, in metres, or refuse them in one line.
 
-trimesh parses the files (every PLY encoding, float or double, extra
-properties such as colour or confidence). This module adds what a
-calibration needs on top: unit conversion to metres, dropping non-finite
-points (organized depth-camera clouds hold NaN), area-weighted sampling of
-coarse meshes, and checks that turn every bad file into one clear
-:class:`airmat.errors.InputError` naming it: missing, empty, truncated,
-unsupported, too few points, or a size that says the units are wrong.
+The formats and their libraries are in :mod:`calib.scan_readers` (one reader
+per format, picked by suffix). This module adds what a calibration needs on
+top: re-centring of georeferenced coordinates in float64 before anything
+else, unit conversion to metres, dropping non-finite points (organized
+depth-camera clouds hold NaN), area-weighted sampling of coarse meshes, the
+quantization step of 32-bit coordinates, and checks that turn every bad file
+into one clear :class:`airmat.errors.InputError` naming it: missing,
+unreadable, empty, truncated, unsupported, too few points, or an extent no
+specimen has (with the unit that would fix it, when one would).
 """
 
 from __future__ import annotations
 
 import logging
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from airmat.errors import InputError
 from airmat.units import SCAN_UNITS
+from calib.scan_readers import SUPPORTED_SUFFIXES, read_cloud
 
-__all__ = ["Scan", "read_scan", "SUPPORTED_SUFFIXES", "MIN_POINTS", "MIN_EXTENT", "MAX_EXTENT"]
+__all__ = ["Scan", "read_scan", "SUPPORTED_SUFFIXES", "MIN_POINTS", "MIN_EXTENT", "MAX_EXTENT",
+           "TYPICAL_EXTENT"]
 
 log = logging.getLogger(__name__)
 
-#: file suffixes read_scan understands (trimesh file types)
-SUPPORTED_SUFFIXES = (".ply", ".obj", ".stl", ".off", ".xyz")
 #: fewest finite points a scan must hold
 MIN_POINTS = 100
 #: smallest and largest plausible scan extent (robust bounding diagonal, m)
 MIN_EXTENT = 0.020
 MAX_EXTENT = 50.0
+#: extents (m) a unit hint may lead to: a specimen and its surroundings, not a room or a survey
+TYPICAL_EXTENT = (0.05, 5.0)
+#: re-centre when the scan's centre is farther from the origin than this many extents
+_RECENTRE_RATIO = 10.0
 
 
 @dataclass(frozen=True)
@@ -41,38 +47,57 @@ class Scan:
     Attributes
     ----------
     points : ndarray of shape (N, 3)
-        Finite coordinates (m), float64.
+        Finite coordinates (m), float64, relative to ``offset``.
     path : str
         The file read.
     n_nonfinite_dropped : int
         Points dropped because a coordinate was NaN or infinite.
     kind : {"points", "mesh"}
         Whether the file held a point cloud or a mesh (faces).
+    offset : ndarray of shape (3,)
+        Subtracted from the file's coordinates (m), in float64 before any
+        other step: zero, or a georeferenced scan's centre.
+    quantization : float
+        Step between neighbouring representable coordinates of a file that
+        stores 32-bit floats, at its largest coordinate (m); 0 for others.
+    units : str
+        The unit the coordinates were read in.
+    n_scans : int
+        Scans in the file (several in a multi-scan E57).
     """
 
     points: np.ndarray
     path: str
     n_nonfinite_dropped: int
     kind: str
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    quantization: float = 0.0
+    units: str = "mm"
+    n_scans: int = 1
 
 
-def read_scan(path: str | os.PathLike, *, units: str = "mm", n_mesh_samples: int = 200_000,
-              seed=0) -> Scan:
+def read_scan(path: str | os.PathLike, *, units: str | None = None, n_mesh_samples: int = 200_000,
+              seed=0, scan_index: int | None = None) -> Scan:
     """Read a scan file and return its finite points in metres.
 
     Parameters
     ----------
     path : path
-        A ``.ply`` (points or mesh, any encoding), ``.obj``, ``.stl``, ``.off``
-        or ``.xyz`` file.
-    units : {"m", "mm", "in"}
-        Unit of the file's coordinates (default millimetres).
+        A scan file with one of :data:`SUPPORTED_SUFFIXES`: PLY (points or
+        mesh, any encoding), OBJ, STL, OFF, GLB/glTF, E57, LAS/LAZ, PCD,
+        PTS/XYZ/TXT.
+    units : {"m", "cm", "mm", "in"}, optional
+        Unit of the file's coordinates. Default: the format's own (metres
+        for E57 and LAS/LAZ), else millimetres.
     n_mesh_samples : int
         A mesh with fewer distinct vertices than this is coarse: it is sampled
         with this many points, area-weighted over its faces, instead of using
         its vertices.
     seed : int or numpy Generator
         Seed of the face sampling.
+    scan_index : int, optional
+        Scan of a multi-scan E57 to read; by default all of them, merged in
+        one frame with their poses.
 
     Returns
     -------
@@ -85,69 +110,88 @@ def read_scan(path: str | os.PathLike, *, units: str = "mm", n_mesh_samples: int
         truncated, of an unsupported format, holds fewer than
         :data:`MIN_POINTS` finite points, or its extent (robust bounding
         diagonal) is below :data:`MIN_EXTENT` or above :data:`MAX_EXTENT`
-        after the unit conversion (wrong ``units``).
+        after the unit conversion.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> xyz = np.random.default_rng(0).uniform(0, 300, (200, 3)) + [5e9, 4e9, 0]  # UTM, mm
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "utm.xyz"
+    >>> np.savetxt(p, xyz, fmt="%.3f")
+    >>> scan = read_scan(p)
+    >>> bool(np.abs(scan.points).max() < 1.0), scan.offset.round(-3).tolist()
+    (True, [5000000.0, 4000000.0, 0.0])
     """
     path = Path(path)
-    if units not in SCAN_UNITS:
+    if units is not None and units not in SCAN_UNITS:
         raise InputError(f"unknown scan unit {units!r}; use one of {', '.join(SCAN_UNITS)}", path=path)
-    suffix = path.suffix.lower()
-    if suffix not in SUPPORTED_SUFFIXES:
-        raise InputError(f"unsupported scan format {suffix or '(no suffix)'!r}; "
+    if path.suffix.lower() not in SUPPORTED_SUFFIXES:
+        raise InputError(f"unsupported scan format {path.suffix or '(no suffix)'!r}; "
                          f"use one of {', '.join(SUPPORTED_SUFFIXES)}", path=path)
-    if not path.is_file():
-        raise InputError("no such file" if not path.exists() else "not a regular file", path=path)
-    if path.stat().st_size == 0:
-        raise InputError("empty file", path=path)
-    if suffix == ".ply":
-        _check_ply_complete(path)
-    geometry = _load(path, suffix)
-    vertices, faces = _vertices_faces(geometry, path)
+    _check_file(path)
+    raw = read_cloud(path, scan_index=scan_index)
+    unit = units or raw.units or "mm"
+    vertices, faces = raw.vertices, raw.faces
     kind = "mesh" if faces is not None and len(faces) else "points"
-    points, n_bad = _finite(vertices, faces, path, n_mesh_samples, seed)
-    points = points * SCAN_UNITS[units]
-    _check_count_and_extent(points, path, units)
-    return Scan(points=points, path=str(path), n_nonfinite_dropped=n_bad, kind=kind)
+    good = np.isfinite(vertices).all(axis=1)
+    offset = _offset(vertices[good])
+    if offset.any():
+        vertices = vertices - offset  # float64: exact to the file's own precision
+    points, n_bad = _finite(vertices, faces, good, path, n_mesh_samples, seed)
+    factor = SCAN_UNITS[unit]
+    points = points * factor
+    quant = _quantization(raw, vertices, offset, good) * factor
+    _check_count_and_extent(points, path, unit, n_bad=n_bad, explicit=units is not None,
+                            format_units=raw.units is not None)
+    if n_bad:  # after the checks: a refused scan gets one line, not a warning too
+        log.warning("%s: dropped %d of %d points with non-finite coordinates", path, n_bad, len(vertices))
+    return Scan(points=points, path=str(path), n_nonfinite_dropped=n_bad, kind=kind, offset=offset * factor,
+                quantization=quant, units=unit, n_scans=raw.n_scans)
 
 
-def _load(path: Path, suffix: str):
-    import trimesh
+def _check_file(path: Path) -> None:
+    """Missing, not a file, unreadable or empty: one InputError naming it."""
+    try:
+        st = path.stat()
+    except OSError as err:  # missing, a symlink loop, a name too long
+        raise InputError("no such file" if not path.is_symlink() and not path.exists()
+                         else f"cannot read: {err.strerror or err}", path=path) from None
+    import stat
 
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError("not a regular file", path=path)
+    if st.st_size == 0:
+        raise InputError("empty file", path=path)
     try:
         with open(path, "rb") as fh:
-            return trimesh.load(fh, file_type=suffix[1:], process=False)
+            fh.read(1)
     except OSError as err:
-        raise InputError(f"cannot read: {err.strerror or err}", path=path) from err
-    except Exception as err:  # trimesh raises many types for malformed files
-        raise InputError(f"cannot parse {suffix[1:].upper()} file (truncated or corrupt?): "
-                         f"{type(err).__name__}: {err}", path=path) from err
+        raise InputError(f"cannot read: {err.strerror or err}", path=path) from None
 
 
-def _vertices_faces(geometry, path: Path):
-    """(V, 3) float64 vertices and (F, 3) faces or None, from a trimesh object."""
-    import trimesh
-
-    if isinstance(geometry, trimesh.Scene):
-        parts = [g for g in geometry.geometry.values() if hasattr(g, "vertices") and len(g.vertices)]
-        if not parts:
-            raise InputError("no points in the file", path=path)
-        meshes = [g for g in parts if isinstance(g, trimesh.Trimesh)]
-        if len(meshes) == len(parts):
-            geometry = trimesh.util.concatenate(meshes)
-        else:
-            return np.concatenate([np.asarray(g.vertices, float) for g in parts]), None
-    vertices = np.asarray(getattr(geometry, "vertices", np.empty((0, 3))), dtype=float)
-    faces = getattr(geometry, "faces", None)
-    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
-        raise InputError("no points in the file", path=path)
-    return vertices, (None if faces is None else np.asarray(faces))
+def _offset(finite: np.ndarray) -> np.ndarray:
+    """The centre to subtract (file units): nonzero only for a scan far from its origin."""
+    if len(finite) == 0:
+        return np.zeros(3)
+    lo, hi = finite.min(axis=0), finite.max(axis=0)
+    mid = 0.5 * (lo + hi)
+    extent = float(np.linalg.norm(hi - lo))
+    if np.linalg.norm(mid) <= _RECENTRE_RATIO * max(extent, np.finfo(float).tiny):
+        return np.zeros(3)
+    return np.round(mid)  # a whole number of file units: the stored offset reads back exactly
 
 
-def _finite(vertices, faces, path, n_mesh_samples, seed):
+def _quantization(raw, vertices, offset, good) -> float:
+    """Spacing of 32-bit floats at the file's largest coordinate (file units); 0 for float64 files."""
+    if not raw.float32 or not good.any():
+        return 0.0
+    largest = float(np.abs(vertices[good] + offset).max())
+    return float(np.spacing(np.float32(largest)))
+
+
+def _finite(vertices, faces, good, path, n_mesh_samples, seed):
     """Finite points: the vertices, or area-weighted samples on a coarse mesh."""
-    good = np.isfinite(vertices).all(axis=1)
     n_bad = int(np.count_nonzero(~good))
-    if n_bad:
-        log.warning("%s: dropped %d of %d points with non-finite coordinates", path, n_bad, len(vertices))
     if faces is not None and len(faces):
         faces = faces[good[faces].all(axis=1)]
         # STL repeats each vertex per face; the count only decides fine vs coarse
@@ -165,66 +209,34 @@ def _sample_faces(vertices, faces, count, seed):
     return np.asarray(points, dtype=float)
 
 
-def _check_count_and_extent(points, path, units):
+def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units):
+    """Too few points, or an extent no specimen scan has.
+
+    The hint names a unit only when the format does not fix the unit (E57,
+    LAS) and the extent in that unit is a typical specimen scan's.
+    """
     n = len(points)
     if n < MIN_POINTS:
-        raise InputError(f"only {n} finite points (need at least {MIN_POINTS})", path=path, n_points=n)
+        dropped = f", {n_bad} of {n + n_bad} were NaN or infinite" if n_bad else ""
+        raise InputError(f"only {n} finite points{dropped} (need at least {MIN_POINTS})",
+                         path=path, n_points=n)
     lo, hi = np.percentile(points, [0.5, 99.5], axis=0)
     extent = float(np.linalg.norm(hi - lo))
-    if extent < MIN_EXTENT:
-        hint = "are the coordinates in metres? pass --scan-units m" if units != "m" else \
-            "is this a scan of a specimen?"
-        raise InputError(f"extent {extent * 1e3:.3g} mm: {hint}", path=path, extent=extent)
-    if extent > MAX_EXTENT:
-        hint = "are the coordinates in millimetres? pass --scan-units mm" if units != "mm" else \
-            "is this a scan of a specimen? (check --scan-units)"
-        raise InputError(f"extent {extent:.3g} m: {hint}", path=path, extent=extent)
-
-
-def _check_ply_complete(path: Path) -> None:
-    """Raise InputError when a PLY header is missing or the body is cut short.
-
-    trimesh notices most truncations, but silently accepts an ascii body cut
-    inside its last line; this checks the header's element counts against
-    the body (byte size for binary, the last line of each element for ascii).
-    """
-    with open(path, "rb") as fh:
-        head = fh.read(1 << 16)
-        end = head.find(b"end_header")
-        if not head.startswith(b"ply") or end < 0:
-            raise InputError("not a PLY file (no 'ply ... end_header' header)", path=path)
-        body_start = head.index(b"\n", end) + 1 if b"\n" in head[end:] else len(head)
-        header = head[:body_start].decode("ascii", errors="replace").split("\n")
-        elements = _ply_elements(header, path)
-        if not any(line.split()[:2] == ["format", "ascii"] for line in header):
-            return  # binary: trimesh checks the byte count itself
-        fh.seek(body_start)
-        lines = fh.read().decode("ascii", errors="replace").split("\n")
-    lines = [ln for ln in lines if ln.strip()]
-    start = 0
-    for name, count, props in elements:
-        if count == 0:
-            continue
-        last = start + count - 1
-        if last >= len(lines):
-            raise InputError(f"truncated PLY: element {name!r} declares {count} rows, "
-                             f"the file has {max(len(lines) - start, 0)}", path=path)
-        tokens = lines[last].split()
-        if all(not p.startswith("list") for p in props) and len(tokens) != len(props):
-            raise InputError(f"truncated PLY: last {name!r} row has {len(tokens)} values, "
-                             f"expected {len(props)}", path=path)
-        start += count
-
-
-def _ply_elements(header, path):
-    """[(name, count, [property type strings])] from PLY header lines."""
-    elements = []
-    for line in header:
-        words = line.split()
-        if words[:1] == ["element"]:
-            if len(words) != 3 or not words[2].isdigit():
-                raise InputError(f"malformed PLY header line {line.strip()!r}", path=path)
-            elements.append((words[1], int(words[2]), []))
-        elif words[:1] == ["property"] and elements:
-            elements[-1][2].append(" ".join(words[1:-1]))
-    return elements
+    if MIN_EXTENT <= extent <= MAX_EXTENT:
+        return
+    in_file = extent / SCAN_UNITS[unit]
+    fits = [u for u, f in SCAN_UNITS.items() if u != unit and TYPICAL_EXTENT[0] <= in_file * f <= TYPICAL_EXTENT[1]]
+    size = f"extent {extent * 1e3:.3g} mm" if extent < MIN_EXTENT else f"extent {extent:.3g} m"
+    fits = [] if format_units and not explicit else fits
+    if fits and not explicit:
+        hint = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "inches"}[fits[0]]
+        raise InputError(f"{size}: are the coordinates in {hint}? pass --scan-units {fits[0]}",
+                         path=path, extent=extent)
+    what = "large" if extent > MAX_EXTENT else "small"
+    if fits:  # the user chose the unit; another one would fit
+        raise InputError(f"{size} read in {unit}: too {what} for a specimen scan; pass --scan-units "
+                         f"{fits[0]} if the file is in {fits[0]}", path=path, extent=extent)
+    why = f"the {path.suffix[1:].upper()} format is in {unit}" if format_units and not explicit else \
+        f"in {unit} or any other unit ({', '.join(SCAN_UNITS)})"
+    raise InputError(f"{size}: not a specimen scan ({MIN_EXTENT * 1e3:g} mm to {MAX_EXTENT:g} m) "
+                     f"{why}", path=path, extent=extent)

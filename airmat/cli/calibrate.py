@@ -16,8 +16,9 @@ def add_parser(sub, parents):
                    help="CSV with columns scan,l_mm,L_mm[,surface_offset_mm]; scans relative to it")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: calibration.json, posterior.npz, specimens.csv, curve.png, corner.png")
-    p.add_argument("--scan-units", choices=("m", "mm", "in"), default="mm",
-                   help="unit of the scan coordinates (default mm)")
+    from airmat.cli.fit import add_scan_options
+
+    add_scan_options(p, index=False)
     p.add_argument("--walkers", type=int, default=32, help="emcee walkers (default 32)")
     p.add_argument("--max-steps", type=int, default=4000,
                    help="cap on the chain length in steps (default 4000)")

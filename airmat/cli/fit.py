@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import logging
 import math
 import sys
 
@@ -17,29 +16,39 @@ def add_parser(sub, parents):
         description="Robust cylinder fit of a scanned specimen (floor, clutter, holes and "
                     "string-end grooves allowed). Prints one JSON object: radius_mm, "
                     "kappa_per_m, kappa_se_per_m, axis, inlier_fraction, rms_mm, arc_deg, ...")
-    p.add_argument("scan", metavar="SCAN", help="PLY (points or mesh, any encoding), OBJ, STL, OFF or XYZ file")
-    p.add_argument("--scan-units", choices=sorted(SCAN_UNITS), default="mm",
-                   help="unit of the scan's coordinates (default mm)")
+    p.add_argument("scan", metavar="SCAN",
+                   help="scan file: E57, LAS/LAZ, PCD, PLY (points or mesh), OBJ, STL, OFF, GLB/glTF, "
+                        "PTS/XYZ/TXT columns")
+    add_scan_options(p)
     p.add_argument("--noise-mm", type=float, default=None,
                    help="scanner noise (standard deviation, mm); estimated from the scan when omitted")
     p.set_defaults(func=run)
 
 
+def add_scan_options(p, *, index=True):
+    """--scan-units (shared with ``calibrate``) and --scan-index."""
+    p.add_argument("--scan-units", choices=sorted(SCAN_UNITS), default=None,
+                   help="unit of the scan's coordinates (default: metres for E57 and LAS/LAZ, "
+                        "whose formats fix it; millimetres otherwise)")
+    if index:
+        p.add_argument("--scan-index", type=int, default=None, metavar="N",
+                       help="multi-scan E57: fit scan N only (from 0); default: all scans merged with their poses")
+
+
 def run(args) -> int:
     from airmat.errors import InputError
-    from calib.cylinder_fit import fit_cylinder
+    from calib.cylinder_stability import fit_cylinder_stable
     from calib.scan_io import read_scan
 
     if args.noise_mm is not None and not args.noise_mm > 0:
         raise InputError(f"--noise-mm must be > 0, got {args.noise_mm}")
-    scan = read_scan(args.scan, units=args.scan_units, seed=args.seed)
+    scan = read_scan(args.scan, units=args.scan_units, seed=args.seed, scan_index=args.scan_index)
     noise = None if args.noise_mm is None else args.noise_mm / M_TO_MM
     try:
-        fit = fit_cylinder(scan.points, seed=args.seed, noise=noise)
+        fit = fit_cylinder_stable(scan.points, seed=args.seed, noise=noise, quantization=scan.quantization,
+                                  strict=True)
     except InputError as err:
         raise err.with_path(scan.path)
-    if not fit.converged:
-        logging.getLogger("airmat").warning("%s: cylinder fit did not converge (%s)", scan.path, fit.message)
     json.dump(fit_to_json(fit, scan), sys.stdout, indent=2)
     sys.stdout.write("\n")
     return 0
@@ -58,7 +67,10 @@ def fit_to_json(fit, scan) -> dict:
         "kappa_se_per_m": float(fit.kappa_se),
         "kappa_se_iid_per_m": float(fit.kappa_se_iid),
         "axis": [round(float(a), 9) for a in fit.axis],
-        "center_mm": [mm(c) for c in fit.center],
+        "center_mm": [mm(c) for c in fit.center + scan.offset],
+        "offset_mm": [mm(c) for c in scan.offset],
+        "scan_units": scan.units,
+        "n_scans": int(scan.n_scans),
         "inlier_fraction": round(float(fit.inlier_fraction), 6),
         "rms_mm": mm(fit.rms),
         "noise_mm": mm(fit.noise),
@@ -70,4 +82,6 @@ def fit_to_json(fit, scan) -> dict:
         "converged": bool(fit.converged),
         "n_iter": int(fit.n_iter),
         "message": fit.message,
+        "n_seeds": int(fit.n_seeds),
+        "kappa_spread_per_m": float(fit.kappa_spread),
     }

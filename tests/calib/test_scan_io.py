@@ -137,9 +137,12 @@ def test_garbage_and_unsupported(tmp_path):
     path = tmp_path / "garbage.ply"
     path.write_bytes(b"this is not a ply file\n")
     _assert_input_error(path, "not a PLY")
-    other = tmp_path / "scan.e57"
+    other = tmp_path / "scan.abc"
     other.write_bytes(b"xx")
-    _assert_input_error(other, "unsupported")
+    _assert_input_error(other, "unsupported", ".e57", ".laz", ".pcd")
+    e57 = tmp_path / "scan.e57"
+    e57.write_bytes(b"xx")
+    _assert_input_error(e57, "cannot parse E57 file")
 
 
 def test_too_few_points(tmp_path, cloud_mm):
@@ -161,10 +164,10 @@ def test_metres_read_as_millimetres_is_caught(tmp_path, cloud_mm):
 def test_absurdly_large_scan_is_caught(tmp_path, cloud_mm):
     path = tmp_path / "huge.ply"
     write_ply(path, cloud_mm)  # mm numbers read as metres: 1000 m across
-    _assert_input_error(path, "m:", "--scan-units mm", units="m")
+    _assert_input_error(path, "m read in m", "--scan-units mm", units="m")
 
 
 def test_unknown_unit(tmp_path, cloud_mm):
     path = tmp_path / "c.ply"
     write_ply(path, cloud_mm)
-    _assert_input_error(path, "unknown scan unit", units="cm")
+    _assert_input_error(path, "unknown scan unit", units="furlong")

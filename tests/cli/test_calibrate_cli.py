@@ -1,6 +1,7 @@
 """`airmat synth` and `airmat calibrate`: outputs, exit codes, one-line errors, atomic output."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -91,7 +92,13 @@ def bad_cases(tmp, synth_set):
     for name in ("a.ply", "b.ply", "c.ply"):
         write_ply(not_cyl / name, rng.uniform(-200, 200, (5000, 3)))
     (not_cyl / "m.csv").write_text("scan,l_mm,L_mm\na.ply,90,300\nb.ply,150,300\nc.ply,200,300\n")
+    loop = tmp / "loop"
+    loop.mkdir()
+    os.symlink(loop / "a.ply", loop / "b.ply")
+    os.symlink(loop / "b.ply", loop / "a.ply")
+    (loop / "m.csv").write_text("scan,l_mm,L_mm\na.ply,90,300\nb.ply,150,300\nc.ply,200,300\n")
     return [
+        ([str(loop / "m.csv")], "line 2: scan 'a.ply' cannot be resolved", loop / "m.csv"),  # issue 16
         ([str(tmp / "missing.csv")], "manifest not found", tmp / "missing.csv"),
         ([str(bad_manifest)], "missing column(s) L_mm", bad_manifest),
         ([str(not_cyl / "m.csv")], "", not_cyl / "a.ply"),
@@ -125,3 +132,23 @@ def test_calibrate_needs_out(capsys):
         main(["calibrate", "m.csv"])
     assert exc.value.code == 2
     assert "--out" in capsys.readouterr().err
+
+
+def test_calibrate_fit_that_did_not_converge_is_an_error_naming_the_scan(synth_set, tmp_path, capsys,
+                                                                          monkeypatch):
+    import dataclasses
+
+    import calib.cylinder_fit as cf
+
+    real = cf.full_resolution_fit
+
+    def stopped(*args, **kwargs):
+        frame, final, used, n_more = real(*args, **kwargs)
+        return frame, dataclasses.replace(final, converged=False, message="max_nfev reached"), used, n_more
+
+    monkeypatch.setattr(cf, "full_resolution_fit", stopped)
+    out = tmp_path / "cal"
+    code = main(["calibrate", str(synth_set / "manifest.csv"), "--out", str(out), "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and not out.exists()
+    assert len(err) == 1 and "did not converge" in err[0] and "specimen_00.ply" in err[0]

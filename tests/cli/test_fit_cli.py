@@ -94,7 +94,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys, case):
     assert sorted(p.name for p in tmp_path.iterdir()) == before
 
 
-def test_a_fit_that_did_not_converge_is_warned_once_naming_the_scan(scan_mm, capsys, monkeypatch):
+def test_a_fit_that_did_not_converge_is_an_error_naming_the_scan(scan_mm, capsys, monkeypatch):
     import dataclasses
 
     import calib.cylinder_fit as cf
@@ -108,7 +108,44 @@ def test_a_fit_that_did_not_converge_is_warned_once_naming_the_scan(scan_mm, cap
     monkeypatch.setattr(cf, "full_resolution_fit", stopped)
     path, _ = scan_mm
     code, out, err = _run(["fit", str(path)], capsys)
-    assert code == 0
-    assert json.loads(out)["converged"] is False
-    warnings = [ln for ln in err.splitlines() if "did not converge" in ln]
-    assert len(warnings) == 1 and str(path) in warnings[0] and "max_nfev reached" in warnings[0]
+    assert code == 2 and out == ""                      # issue 12: never a number from a failed fit
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and str(path) in lines[0]
+    assert "did not converge" in lines[0] and "max_nfev reached" in lines[0]
+
+
+def test_fit_reads_a_multiscan_e57_and_a_georeferenced_laz(tmp_path, capsys):
+    from scipy.spatial.transform import Rotation
+
+    from data_synthetic.scan_write import write_scan
+
+    s = specimen_scan(4.0, n_points=30_000, arc_deg=60, seed=7)
+    poses = [(np.eye(3), np.zeros(3)), (Rotation.from_euler("z", 60, degrees=True).as_matrix(),
+                                        np.array([2000.0, 0.0, 500.0]))]
+    e57 = write_scan(tmp_path / "two.e57", s.points * 1e3, "e57", poses=poses)
+    code, out, err = _run(["fit", str(e57), "-q"], capsys)
+    assert code == 0, err
+    rec = json.loads(out)
+    assert rec["n_scans"] == 2 and rec["scan_units"] == "m" and rec["n_points"] == len(s.points)
+    assert rec["radius_mm"] == pytest.approx(250.0, rel=0.005)
+    code, out, err = _run(["fit", str(e57), "--scan-index", "5"], capsys)
+    assert code == 2 and "--scan-index 5 out of range" in err and str(e57) in err
+    utm = np.array([5e6, 4.2e6, 300.0])
+    laz = write_scan(tmp_path / "utm.laz", (s.points + utm) * 1e3, "laz")
+    code, out, err = _run(["fit", str(laz), "-q"], capsys)
+    assert code == 0, err
+    rec = json.loads(out)
+    assert rec["radius_mm"] == pytest.approx(250.0, rel=0.005)
+    assert rec["offset_mm"][0] == pytest.approx(5e9, rel=1e-6)
+    # the axis passes through the file's (georeferenced) coordinates: the centre is within reach
+    assert np.linalg.norm(np.array(rec["center_mm"]) - utm * 1e3) < 2000
+
+
+def test_fit_scan_units_cm(tmp_path, capsys):
+    from data_synthetic.scan_write import write_scan
+
+    s = specimen_scan(4.0, n_points=30_000, arc_deg=60, seed=7)
+    path = write_scan(tmp_path / "cm.xyz", s.points * 1e2, "xyz")
+    code, out, err = _run(["fit", str(path), "--scan-units", "cm", "-q"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["radius_mm"] == pytest.approx(250.0, rel=0.005)

@@ -1,0 +1,78 @@
+"""PLY (points or mesh, any encoding), OBJ, STL, OFF, GLB and glTF through trimesh."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from airmat.errors import InputError
+from calib.scan_readers.ply_header import check_ply_complete, ply_vertex_float32
+from calib.scan_readers.raw import RawCloud, library_message
+
+__all__ = ["read"]
+
+
+def read(path: Path, *, scan_index=None) -> RawCloud:
+    """Vertices (and faces) of a trimesh-readable file; a scene's parts are placed by their node poses."""
+    suffix = path.suffix.lower()
+    float32 = suffix in (".stl", ".glb", ".gltf")  # these formats store 32-bit floats only
+    if suffix == ".ply":
+        check_ply_complete(path)
+        float32 = ply_vertex_float32(path)
+    geometry = _load(path, suffix)
+    vertices, faces = _vertices_faces(geometry, path)
+    return RawCloud(vertices=vertices, faces=faces, float32=float32)
+
+
+@contextlib.contextmanager
+def _quiet(name: str):
+    """Silence a library's logger (trimesh logs tracebacks for, e.g., a missing texture)."""
+    logger = logging.getLogger(name)
+    level, logger.level = logger.level, logging.CRITICAL + 1
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _load(path: Path, suffix: str):
+    import trimesh
+
+    try:
+        with _quiet("trimesh"), open(path, "rb") as fh:
+            return trimesh.load(fh, file_type=suffix[1:], process=False,
+                                resolver=trimesh.resolvers.FilePathResolver(str(path)))
+    except OSError as err:
+        raise InputError(f"cannot read: {err.strerror or err}", path=path) from None
+    except Exception as err:  # trimesh raises many types for malformed files
+        raise InputError(f"cannot parse {suffix[1:].upper()} file (truncated or corrupt?): "
+                         f"{library_message(err)}", path=path) from None
+
+
+def _vertices_faces(geometry, path: Path):
+    """(V, 3) float64 vertices and (F, 3) faces or None, from a trimesh object."""
+    import trimesh
+
+    if isinstance(geometry, trimesh.Scene):
+        parts = [g for g in geometry.dump(concatenate=False) if hasattr(g, "vertices") and len(g.vertices)]
+        if not parts:
+            raise InputError("no points in the file", path=path)
+        meshes = [g for g in parts if isinstance(g, trimesh.Trimesh)]
+        if len(meshes) == len(parts):
+            geometry = trimesh.util.concatenate(meshes)
+        else:
+            return np.concatenate([np.asarray(g.vertices, float) for g in parts]), None
+    vertices = np.asarray(getattr(geometry, "vertices", np.empty((0, 3))), dtype=float)
+    faces = getattr(geometry, "faces", None)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
+        raise InputError("no points in the file", path=path)
+    if faces is None or len(faces) == 0:
+        return vertices, None
+    faces = np.asarray(faces)
+    if faces.ndim != 2 or faces.min() < 0 or faces.max() >= len(vertices):
+        raise InputError(f"face vertex index out of range: {int(faces.min())}..{int(faces.max())} "
+                         f"with {len(vertices)} vertices", path=path)
+    return vertices, faces
