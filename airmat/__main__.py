@@ -1,5 +1,11 @@
+"""``python -m airmat``: the SIGINT handler goes in before any heavy import (see airmat.cli.sigint)."""
+
 import sys
 
-from airmat.cli import main
+from airmat.cli.sigint import install
+
+install()
+
+from airmat.cli import main  # noqa: E402  (after the handler, on purpose)
 
 sys.exit(main())
