@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from airmat.errors import InputError
@@ -37,6 +38,11 @@ def _read_truth(path):
         raise InputError(f"cannot read the truth file: {err}", path=path) from None
     if not isinstance(truth, dict) or not {"delta_mm", "d_mm"} <= truth.keys():
         raise InputError("truth file must be a JSON object with delta_mm and d_mm", path=path)
+    for key in ("delta_mm", "d_mm", "sigma_per_m"):
+        value = truth.get(key)
+        if key in truth and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                 and math.isfinite(value)):
+            raise InputError(f"field '{key}' must be a finite number, got {value!r}", path=path, field=key)
     return truth
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._ranges import check_range
 from airmat.errors import InputError
 
 
@@ -37,8 +38,7 @@ def run(args) -> int:
         raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
     params = Parameters()
     if args.pressure_pa is not None:
-        if not (args.pressure_pa > 0):
-            raise InputError(f"--pressure-pa must be > 0, got {args.pressure_pa!r}")
+        check_range("--pressure-pa", args.pressure_pa)
         params = replace(params, pressure=args.pressure_pa)
     workers = jobs(args)
     design = read_design(args.design)
