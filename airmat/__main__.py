@@ -6,6 +6,10 @@ from airmat.cli.sigint import install
 
 install()
 
-from airmat.cli import main  # noqa: E402  (after the handler, on purpose)
+try:
+    from airmat.cli import main  # noqa: E402  (after the handler, on purpose)
+except KeyboardInterrupt:
+    print("airmat: interrupted", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

@@ -47,7 +47,8 @@ def _read_truth(path):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import staged
     from calib.calibrate import calibrate
     from calib.plots import plot_corner, plot_curve
     from calib.calibration_io import summary_text, write_calibration
@@ -56,7 +57,7 @@ def run(args) -> int:
     truth = _read_truth(args.truth)
     cal = calibrate(args.manifest, scan_units=args.scan_units, n_walkers=args.walkers,
                     max_steps=args.max_steps, seed=args.seed)
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         write_calibration(cal, tmp, truth=truth)
         plot_curve(cal, tmp / "curve.png", truth=truth)
         plot_corner(cal.posterior, tmp / "corner.png", truths=truth)

@@ -78,7 +78,8 @@ def _published(cal, staged: Path, out: Path):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from calib.calibrate import calibrate
     from calib.calibration_io import write_calibration
@@ -101,7 +102,7 @@ def run(args) -> int:
     target, mattress = preset(args.preset)
     out = Path(args.out)
     seconds = {}
-    with staged_dir(out) as tmp:
+    with staged(out) as tmp:
         t = time.perf_counter()
         log.info("synth: %d points per scan", args.points)
         cs = calibration_set(tmp / "synth", n_points=args.points, seed=args.seed)

@@ -127,7 +127,8 @@ def summary_text(doc: dict, out) -> str:
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import staged
     from airmat.progress import progress_enabled
     from design.calibration_source import PAPER, load_calibration
     from design.design_io import write_design
@@ -149,7 +150,7 @@ def run(args) -> int:
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
                     progress=progress_enabled())
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         doc = write_design(result, tmp)
     print(summary_text(doc, args.out))
     return 0

@@ -47,7 +47,8 @@ def table_row(design, check, seconds: float) -> str:
 def run(args) -> int:
     import dataclasses
 
-    from airmat.atomic import atomic_write_text, check_out_dir, staged_dir
+    from airmat.atomic import atomic_write_text, check_out_dir
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.inflation_check import check
     from check.report import check_dict, write_check
@@ -68,7 +69,7 @@ def run(args) -> int:
     calibration = load_calibration(args.calibration) if args.calibration else None
     out = Path(args.out)
     rows, results = [], {}
-    with staged_dir(out) as tmp:
+    with staged(out) as tmp:
         for name in names:
             target, mattress = preset(name)
             t = time.perf_counter()

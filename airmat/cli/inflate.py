@@ -26,7 +26,8 @@ def add_parser(sub, parents):
 def run(args) -> int:
     from dataclasses import replace
 
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.inflation_check import check
     from design.design_io import read_design
@@ -44,7 +45,7 @@ def run(args) -> int:
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
                    workers=workers)
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         doc = write_check(result, tmp)
     print(summary_text(doc, args.out))
     return 0

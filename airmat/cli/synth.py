@@ -36,6 +36,7 @@ def add_parser(sub, parents):
 
 def run(args) -> int:
     from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import check
     from airmat.units import MM
     from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
@@ -49,6 +50,7 @@ def run(args) -> int:
     if not (1000 <= args.points <= 10_000_000):
         raise InputError(f"--points: {args.points} is outside [1000, 10000000]")
     ratios = DEFAULT_L_OVER_L if args.l_over_L is None else _ratios(args.l_over_L)
+    check()  # a Ctrl-C that a library's import swallowed
     cs = calibration_set(args.outdir, delta=args.delta_mm * MM, d=args.d_mm * MM, L=args.L_mm * MM,
                          l_over_L=ratios, n_points=args.points, scatter=args.scatter,
                          seed=args.seed)

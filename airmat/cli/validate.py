@@ -43,7 +43,8 @@ def _write(points, folder, resolution_mm):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.validation import validate_equation3
 
@@ -58,7 +59,7 @@ def run(args) -> int:
         raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
     workers = jobs(args)
     points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers)
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         rows = _write(points, tmp, args.resolution_mm)
     print("l/L   cylinder fit κ (1/m)   along strings κ (1/m)   Equation 3, Δ = 0 (1/m)")
     for r in rows:
