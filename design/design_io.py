@@ -81,6 +81,9 @@ def write_design(result: DesignResult, folder) -> dict:
     doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
                           report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
                           seed=result.seed, name=result.name)
+    if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
+        doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
+                             "message": str(a.relax.message)}
     write_design_json(folder / "design.json", doc)
     write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
     _write_samples(folder / "calibration_samples.npz", result.calibration)
@@ -274,4 +277,5 @@ def read_design(folder) -> DesignResult:
     approx = ApproxSurface(target=None, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
                            report=_report(doc, path))
     return DesignResult(name=str(doc.get("name", folder.name)), approx=approx, pattern=pattern,
-                        calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)), source=str(folder))
+                        calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)),
+                        source=str(folder))

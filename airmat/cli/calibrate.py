@@ -48,6 +48,7 @@ def _read_truth(path):
 
 def run(args) -> int:
     from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from calib.calibrate import calibrate
     from calib.plots import plot_corner, plot_curve
@@ -62,4 +63,13 @@ def run(args) -> int:
         plot_curve(cal, tmp / "curve.png", truth=truth)
         plot_corner(cal.posterior, tmp / "corner.png", truths=truth)
     print(summary_text(cal, args.out))
-    return 0
+    return not_converged("calibrate", calibration_not_converged(cal))
+
+
+def calibration_not_converged(cal) -> list[str]:
+    """What did not converge in a calibration: the MCMC, the specimens' cylinder fits."""
+    what = [] if cal.posterior.converged else [f"MCMC: {cal.posterior.message}"]
+    fits = [s.scan for s in cal.specimens if not s.fit_converged]
+    if fits:
+        what.append(f"cylinder fit of {len(fits)} specimen(s): {', '.join(fits)}")
+    return what

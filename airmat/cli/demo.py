@@ -79,6 +79,10 @@ def _published(cal, staged: Path, out: Path):
 
 def run(args) -> int:
     from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.calibrate import calibration_not_converged
+    from airmat.cli.design import design_not_converged
+    from airmat.cli.inflate import check_not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
     from calib.calibrate import calibrate
@@ -130,4 +134,5 @@ def run(args) -> int:
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
     print(summary(out, cal, cs.truth, result, checked, seconds))
-    return 0
+    return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)
+                         + check_not_converged(checked))

@@ -128,6 +128,7 @@ def summary_text(doc: dict, out) -> str:
 
 def run(args) -> int:
     from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.progress import progress_enabled
     from design.calibration_source import PAPER, load_calibration
@@ -153,4 +154,10 @@ def run(args) -> int:
     with staged(args.out) as tmp:
         doc = write_design(result, tmp)
     print(summary_text(doc, args.out))
-    return 0
+    return not_converged("design", design_not_converged(result))
+
+
+def design_not_converged(result) -> list[str]:
+    """What did not converge in a design: the U_A relaxation."""
+    relax = result.approx.relax
+    return [] if relax is None or relax.converged else [f"U_A relaxation: {relax.message}"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import logging
 import math
 import sys
 
@@ -26,6 +25,8 @@ def add_parser(sub, parents):
 
 
 def run(args) -> int:
+    from airmat.cli._exit import not_converged
+    from airmat.cli.sigint import check
     from airmat.errors import InputError
     from calib.cylinder_fit import fit_cylinder
     from calib.scan_io import read_scan
@@ -38,11 +39,11 @@ def run(args) -> int:
         fit = fit_cylinder(scan.points, seed=args.seed, noise=noise)
     except InputError as err:
         raise err.with_path(scan.path)
-    if not fit.converged:
-        logging.getLogger("airmat").warning("%s: cylinder fit did not converge (%s)", scan.path, fit.message)
+    check()
     json.dump(fit_to_json(fit, scan), sys.stdout, indent=2)
     sys.stdout.write("\n")
-    return 0
+    sys.stdout.flush()
+    return not_converged("fit", [] if fit.converged else [f"{scan.path}: cylinder fit: {fit.message}"])
 
 
 def fit_to_json(fit, scan) -> dict:

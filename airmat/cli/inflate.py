@@ -27,6 +27,7 @@ def run(args) -> int:
     from dataclasses import replace
 
     from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.inflation_check import check
@@ -48,4 +49,10 @@ def run(args) -> int:
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
     print(summary_text(doc, args.out))
-    return 0
+    return not_converged("inflate", check_not_converged(result))
+
+
+def check_not_converged(result) -> list[str]:
+    """What did not converge in an inflation check: each run (median, lo95, hi95) by name."""
+    return [f"inflation with the {k} string lengths: {r.inflation.message}"
+            for k, r in result.runs.items() if not r.inflation.converged]

@@ -94,7 +94,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys, case):
     assert sorted(p.name for p in tmp_path.iterdir()) == before
 
 
-def test_a_fit_that_did_not_converge_is_warned_once_naming_the_scan(scan_mm, capsys, monkeypatch):
+def test_a_fit_that_did_not_converge_exits_3_with_one_line_naming_the_scan(scan_mm, capsys, monkeypatch):
     import dataclasses
 
     import calib.cylinder_fit as cf
@@ -108,7 +108,8 @@ def test_a_fit_that_did_not_converge_is_warned_once_naming_the_scan(scan_mm, cap
     monkeypatch.setattr(cf, "full_resolution_fit", stopped)
     path, _ = scan_mm
     code, out, err = _run(["fit", str(path)], capsys)
-    assert code == 0
+    assert code == 3                                    # the "not converged" policy (airmat.cli._exit)
     assert json.loads(out)["converged"] is False
-    warnings = [ln for ln in err.splitlines() if "did not converge" in ln]
+    warnings = [ln for ln in err.splitlines() if "not converged" in ln]
     assert len(warnings) == 1 and str(path) in warnings[0] and "max_nfev reached" in warnings[0]
+    assert warnings[0].startswith("airmat fit: not converged: ")
