@@ -171,7 +171,7 @@ def _read_samples(path: Path) -> dict:
         raise InputError("posterior.npz not found (expected the output folder of 'airmat calibrate')",
                          path=path)
     try:
-        with np.load(path, allow_pickle=False) as npz:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:  # our handle: closed on BadZipFile
             arrays = {k: np.asarray(npz[k], dtype=float) for k in npz.files}
     except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
         why = "empty file" if isinstance(exc, EOFError) else (str(exc) or type(exc).__name__)

@@ -173,7 +173,7 @@ def _calibration(folder: Path, doc: dict, path: Path, L: float, thickness: float
     samples = folder / "calibration_samples.npz"
     if samples.is_file():
         try:
-            with np.load(samples, allow_pickle=False) as npz:
+            with open(samples, "rb") as fh, np.load(fh, allow_pickle=False) as npz:  # closed on BadZipFile
                 delta, d = np.asarray(npz["delta_m"], float).ravel(), np.asarray(npz["d_m"], float).ravel()
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
             why = "empty file" if isinstance(exc, EOFError) else (str(exc) or type(exc).__name__)
