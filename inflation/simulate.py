@@ -237,6 +237,7 @@ def _quiet_worker() -> None:
     """A worker process draws no progress bars, prints no log records and ignores Ctrl-C (the parent
     reports, and on Ctrl-C stops the workers itself)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked by the parent while it spawned us
     set_progress(False)
     logging.getLogger().addHandler(logging.NullHandler())
 
@@ -277,8 +278,14 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
                                mp_context=multiprocessing.get_context("spawn"))
     processes = []
     try:
-        futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
-        processes = list(pool._processes.values())  # to stop them on Ctrl-C and to reap them
+        # the workers start with SIGINT blocked (the mask is inherited), so that a Ctrl-C while they
+        # import, before _quiet_worker runs, prints no traceback; here it waits until the mask is restored
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
+            processes = list(pool._processes.values())  # to stop them on Ctrl-C and to reap them
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         with progress(total=len(futures), desc=f"{desc} ({n} processes)", unit="run") as bar:
             for f in futures:
                 if f.exception() is not None:       # waits for it; a failed run ends the others

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 
 from airmat.cli import sigint
@@ -83,7 +84,12 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Run the ``airmat`` command line; returns the exit code (:mod:`airmat.cli._exit`)."""
     sigint.install()
-    command = "airmat"
+    return _exit_code(_main(argv), as_command=argv is None)
+
+
+def _main(argv):
+    words = sys.argv[1:] if argv is None else argv
+    command = next((f"airmat {w}" for w in words if w in COMMANDS), "airmat")  # until the parser knows
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -113,6 +119,21 @@ def _interrupted(command: str) -> int:
     sigint.ignore()  # a second Ctrl-C does not interrupt the report
     print(f"{command}: interrupted", file=sys.stderr, flush=True)
     return INTERRUPTED
+
+
+def _exit_code(code: int, as_command: bool) -> int:
+    """``code``; run as the command, an interrupt ends the process here with 130.
+
+    CPython remembers a KeyboardInterrupt that went through a nested
+    ``PyRun_*`` call (some extension modules run code that way while they are
+    imported) and, at exit, kills itself with SIGINT even though the
+    interrupt was handled: the exit status would be -2, not 130.
+    """
+    if as_command and code == INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(INTERRUPTED)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover
