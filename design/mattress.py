@@ -78,7 +78,7 @@ def check_spacing(mattress: Mattress, spacing: float) -> tuple[int, int]:
     Examples
     --------
     >>> check_spacing(Mattress(0.83, 0.74), 0.02)
-    (41, 37)
+    (42, 37)
     """
     if not (math.isfinite(spacing) and spacing > 0):
         raise InputError(f"mesh spacing must be a finite length > 0 m, got {spacing!r}", spacing=spacing)
