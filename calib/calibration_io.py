@@ -15,6 +15,7 @@ import csv
 import io
 import json
 import math
+import zipfile
 from collections import Counter
 from pathlib import Path
 
@@ -150,7 +151,19 @@ def _read_json(path: Path) -> dict:
         entry = params.get(name) if isinstance(params, dict) else None
         if not isinstance(entry, dict) or "median" not in entry:
             raise InputError(f"missing field 'parameters.{name}.median'", path=path, field=f"parameters.{name}")
+        for key, value in entry.items():
+            if key in _BAND_KEYS and not _finite_number(value):
+                raise InputError(f"field 'parameters.{name}.{key}' must be a finite number, got {value!r}",
+                                 path=path, field=f"parameters.{name}.{key}")
     return doc
+
+
+_BAND_KEYS = ("median", "lo68", "hi68", "lo95", "hi95")
+
+
+def _finite_number(value) -> bool:
+    """True for a JSON number that is finite (not a bool, a string, a list or NaN)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _read_samples(path: Path) -> dict:
@@ -158,10 +171,11 @@ def _read_samples(path: Path) -> dict:
         raise InputError("posterior.npz not found (expected the output folder of 'airmat calibrate')",
                          path=path)
     try:
-        with np.load(path, allow_pickle=False) as npz:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:  # our handle: closed on BadZipFile
             arrays = {k: np.asarray(npz[k], dtype=float) for k in npz.files}
-    except (OSError, ValueError) as exc:
-        raise InputError(f"not readable as .npz: {exc}", path=path) from exc
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        why = "empty file" if isinstance(exc, EOFError) else (str(exc) or type(exc).__name__)
+        raise InputError(f"not readable as .npz: {why}", path=path) from None
     for name in ("delta_m", "d_m"):
         if name not in arrays:
             raise InputError(f"missing array '{name}'", path=path, field=name)
@@ -178,17 +192,22 @@ def _read_samples(path: Path) -> dict:
 
 def _string_spacing(doc: dict, arrays: dict, folder: Path) -> float:
     """L (m): posterior.npz ``L_m``, else ``curve.L_mm``, else the most common specimen ``L_mm``."""
+    curve = doc.get("curve")
+    if isinstance(curve, dict) and curve.get("L_mm") is not None and not (
+            _finite_number(curve["L_mm"]) and curve["L_mm"] > 0):
+        raise InputError(f"field 'curve.L_mm' must be a positive number (mm), got {curve['L_mm']!r}",
+                         path=folder / "calibration.json", field="curve.L_mm")
     if "L_m" in arrays and arrays["L_m"].size:
         L = float(np.median(arrays["L_m"]))
         if not (np.isfinite(L) and L > 0):
             raise InputError(f"array 'L_m' must be > 0 m, got {L!r}", path=folder / "posterior.npz", field="L_m")
         return L
-    curve, specimens, L = doc.get("curve"), doc.get("specimens"), None
+    specimens, L = doc.get("specimens"), None
     if isinstance(curve, dict) and curve.get("L_mm") is not None:
         L = float(curve["L_mm"]) * MM
     elif isinstance(specimens, list):
         values = [s.get("L_mm") for s in specimens if isinstance(s, dict) and s.get("L_mm") is not None]
-        if values:
+        if values and all(_finite_number(v) for v in values):
             L = float(Counter(float(v) for v in values).most_common(1)[0][0]) * MM
     if L is None or not (np.isfinite(L) and L > 0):
         raise InputError("missing field 'curve.L_mm' (or specimens[].L_mm, or array L_m in posterior.npz): "

@@ -235,6 +235,8 @@ def sample_posterior(data: SpecimenData, *, priors: Priors = DEFAULT_PRIORS, n_w
     """
     import emcee
 
+    from airmat.interrupt import deferred_interrupt
+
     check_sampler_options(n_walkers, max_steps)
     rng = np.random.default_rng(seed)
     bounds = priors.bounds(float(np.min(data.L)))
@@ -247,10 +249,12 @@ def sample_posterior(data: SpecimenData, *, priors: Priors = DEFAULT_PRIORS, n_w
     sampler = emcee.EnsembleSampler(n_walkers, len(PARAM_NAMES), _log_prob_log_sigma, args=args,
                                     vectorize=True, moves=emcee.moves.DEMove())
     tau = np.full(len(PARAM_NAMES), np.inf)
-    with progress(total=max_steps, desc="sampling", unit="step") as bar:
+    # Ctrl-C waits for the end of a chunk: inside emcee it would print its likelihood wrapper's traceback
+    with progress(total=max_steps, desc="sampling", unit="step") as bar, deferred_interrupt() as pending:
         while sampler.iteration < max_steps:
             n = min(chunk, max_steps - sampler.iteration)
             state = sampler.run_mcmc(state, n, progress=False)
+            pending.check()
             bar.update(n)
             tau = sampler.get_autocorr_time(tol=0)
             tau_max, residual, done = _summarize(tau, sampler.iteration, tau_multiple)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import re
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -80,6 +81,9 @@ def write_design(result: DesignResult, folder) -> dict:
     doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
                           report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
                           seed=result.seed, name=result.name)
+    if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
+        doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
+                             "message": str(a.relax.message)}
     write_design_json(folder / "design.json", doc)
     write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
     _write_samples(folder / "calibration_samples.npz", result.calibration)
@@ -155,7 +159,13 @@ def _string(dash, k: int, path: Path, width: float, height: float) -> TensionStr
     line, index = (int(m.group(1)), int(m.group(2))) if m else (0, k + 1)
     return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length),
                          kappa=kappa, side=side, l_median=l[0], l_lo95=l[1], l_hi95=l[2],
-                         flags=tuple(str(f) for f in dash.get("flags", ())))
+                         flags=_flags(dash.get("flags", ()), did, path))
+
+
+def _flags(value, did: str, path: Path) -> tuple:
+    if not isinstance(value, (list, tuple)):
+        raise InputError(f"dash {did} flags must be a list of strings, got {value!r}", path=path)
+    return tuple(str(f) for f in value)
 
 
 def _calibration(folder: Path, doc: dict, path: Path, L: float, thickness: float) -> CalibrationSource:
@@ -163,10 +173,11 @@ def _calibration(folder: Path, doc: dict, path: Path, L: float, thickness: float
     samples = folder / "calibration_samples.npz"
     if samples.is_file():
         try:
-            with np.load(samples, allow_pickle=False) as npz:
+            with open(samples, "rb") as fh, np.load(fh, allow_pickle=False) as npz:  # closed on BadZipFile
                 delta, d = np.asarray(npz["delta_m"], float).ravel(), np.asarray(npz["d_m"], float).ravel()
-        except (OSError, ValueError, KeyError, EOFError) as exc:
-            raise InputError(f"not readable as the design's calibration samples: {exc}", path=samples) from None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            why = "empty file" if isinstance(exc, EOFError) else (str(exc) or type(exc).__name__)
+            raise InputError(f"not readable as the design's calibration samples: {why}", path=samples) from None
         if delta.size == 0 or delta.shape != d.shape or not (np.all(np.isfinite(delta)) and np.all(d > 0)):
             raise InputError("calibration samples must be finite, non-empty, of one length, with d > 0",
                              path=samples)
@@ -256,6 +267,9 @@ def read_design(folder) -> DesignResult:
     calibration = _calibration(folder, doc, path, L, mattress.thickness)
     params = params if params.L is not None else DesignParams(**{**params.__dict__, "L": L})
     summary = doc.get("summary", {})
+    if not isinstance(summary, dict) or not all(isinstance(summary.get(k, {}), dict)
+                                                for k in ("dashes", "no_string")):
+        raise InputError("field 'summary' must be an object with objects 'dashes' and 'no_string'", path=path)
     pattern = Pattern(strings=strings, L=params.L,
                       n_dashes=dict(summary.get("dashes", {})), n_no_string=dict(summary.get("no_string", {})),
                       notes=tuple(summary.get("notes", ())))
@@ -263,4 +277,5 @@ def read_design(folder) -> DesignResult:
     approx = ApproxSurface(target=None, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
                            report=_report(doc, path))
     return DesignResult(name=str(doc.get("name", folder.name)), approx=approx, pattern=pattern,
-                        calibration=calibration, params=params, seed=int(doc.get("seed", 0)), source=str(folder))
+                        calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)),
+                        source=str(folder))

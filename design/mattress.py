@@ -17,12 +17,13 @@ from airmat.constants import PAPER_D
 from airmat.errors import InputError
 from airmat.geometry.grid import cell_count, rectangle_grid
 
-__all__ = ["Mattress", "triangulate_mattress"]
+__all__ = ["Mattress", "triangulate_mattress", "check_spacing", "MAX_VERTICES"]
 
 log = logging.getLogger(__name__)
 
-#: more vertices than this is a spacing slip (mm read as m), not a design
-MAX_VERTICES = 2_000_000
+#: more vertices than this is a spacing slip (mm read as m), or beyond what the relaxation's sparse
+#: solver handles in memory (614k vertices, 1 mm on 830 x 740 mm, failed in SuperLU under 6 GB)
+MAX_VERTICES = 100_000
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,34 @@ class Mattress:
         return f"{self.width * 1e3:.0f} × {self.height * 1e3:.0f} mm"
 
 
+def check_spacing(mattress: Mattress, spacing: float) -> tuple[int, int]:
+    """The cells across and along Ω at ``spacing`` (m); InputError when the mesh would be unusable.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        For a spacing that is not a positive length, leaves fewer than two
+        cells across Ω, or makes more than :data:`MAX_VERTICES` vertices.
+
+    Examples
+    --------
+    >>> check_spacing(Mattress(0.83, 0.74), 0.02)
+    (42, 37)
+    """
+    if not (math.isfinite(spacing) and spacing > 0):
+        raise InputError(f"mesh spacing must be a finite length > 0 m, got {spacing!r}", spacing=spacing)
+    nu_cells = cell_count(mattress.width, spacing)
+    nv_cells = cell_count(mattress.height, spacing)
+    if min(nu_cells, nv_cells) < 2:
+        raise InputError(f"mesh spacing {spacing * 1e3:.0f} mm leaves fewer than 2 cells across the "
+                         f"{mattress.size_mm} mattress", spacing=spacing)
+    if (nu_cells + 1) * (nv_cells + 1) > MAX_VERTICES:
+        raise InputError(f"mesh spacing {spacing * 1e3:.3g} mm gives "
+                         f"{(nu_cells + 1) * (nv_cells + 1)} vertices on the {mattress.size_mm} mattress, "
+                         f"limit {MAX_VERTICES}: choose a coarser spacing (a unit slip?)", spacing=spacing)
+    return nu_cells, nv_cells
+
+
 def triangulate_mattress(mattress: Mattress, *, spacing: float = 0.02):
     """Triangulate Ω with a regular grid of alternating diagonals (:mod:`airmat.geometry.grid`).
 
@@ -92,7 +121,7 @@ def triangulate_mattress(mattress: Mattress, *, spacing: float = 0.02):
     ------
     airmat.errors.InputError
         For a spacing that is not a positive length, leaves fewer than two
-        cells across Ω, or makes more than two million vertices.
+        cells across Ω, or makes more than :data:`MAX_VERTICES` vertices.
 
     Examples
     --------
@@ -100,16 +129,7 @@ def triangulate_mattress(mattress: Mattress, *, spacing: float = 0.02):
     >>> uv.shape, faces.shape
     ((1634, 2), (3108, 3))
     """
-    if not (math.isfinite(spacing) and spacing > 0):
-        raise InputError(f"mesh spacing must be a finite length > 0 m, got {spacing!r}", spacing=spacing)
-    nu_cells = cell_count(mattress.width, spacing)
-    nv_cells = cell_count(mattress.height, spacing)
-    if min(nu_cells, nv_cells) < 2:
-        raise InputError(f"mesh spacing {spacing * 1e3:.0f} mm leaves fewer than 2 cells across the "
-                         f"{mattress.size_mm} mattress", spacing=spacing)
-    if (nu_cells + 1) * (nv_cells + 1) > MAX_VERTICES:
-        raise InputError(f"mesh spacing {spacing * 1e3:.3g} mm gives more than {MAX_VERTICES} vertices "
-                         f"on the {mattress.size_mm} mattress (a unit slip?)", spacing=spacing)
+    nu_cells, nv_cells = check_spacing(mattress, spacing)
     uv, faces = rectangle_grid(mattress.width, mattress.height, nu_cells + 1, nv_cells + 1,
                                diagonals="alternating")
     log.debug("Ω triangulated: %d vertices, %d faces, spacing %.1f mm",

@@ -137,11 +137,27 @@ def _check_mesh(v: np.ndarray, f: np.ndarray) -> None:
     if bad.any():
         raise InputError(f"{int(bad.sum())} of {len(v)} vertices have NaN or infinite coordinates "
                          f"(first: vertex {int(np.flatnonzero(bad)[0])})", n_bad=int(bad.sum()))
+    _check_area(v, f)
     _, counts = np.unique(face_edges(f), axis=0, return_counts=True)
     n_nm = int((counts > 2).sum())
     if n_nm:
         raise InputError(f"mesh has {n_nm} non-manifold edges (shared by more than two faces); "
                          "the target must be a single-sheeted surface", n_nonmanifold=n_nm)
+
+
+#: a target whose faces cover less than this fraction of its bounding diagonal squared has no surface
+MIN_AREA_FRACTION = 1e-6
+
+
+def _check_area(v: np.ndarray, f: np.ndarray) -> None:
+    """Refuse collinear points and meshes whose faces are all degenerate (no surface to design for)."""
+    p = v[f]
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    diag2 = float(np.sum((v.max(axis=0) - v.min(axis=0)) ** 2))
+    n_degenerate = int(np.sum(area <= 1e-12 * diag2))
+    if not area.sum() > MIN_AREA_FRACTION * diag2:
+        raise InputError(f"the target has no surface: {n_degenerate} of {len(f)} faces are degenerate "
+                         f"(zero area; collinear or coincident points)", n_degenerate=n_degenerate)
 
 
 def _declared_polygons(path: Path, mesh) -> int | None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import signal
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
@@ -233,7 +234,10 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
 
 
 def _quiet_worker() -> None:
-    """A worker process draws no progress bars and prints no log records (the parent reports)."""
+    """A worker process draws no progress bars, prints no log records and ignores Ctrl-C (the parent
+    reports, and on Ctrl-C stops the workers itself)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked by the parent while it spawned us
     set_progress(False)
     logging.getLogger().addHandler(logging.NullHandler())
 
@@ -270,14 +274,29 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
         return [inflate(mesh, s, params=params, strict=strict)
                 for s in progress(string_sets, desc=desc, unit="run")]
     n = min(workers, len(string_sets))
-    with ProcessPoolExecutor(max_workers=n, initializer=_quiet_worker,
-                             mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
+    pool = ProcessPoolExecutor(max_workers=n, initializer=_quiet_worker,
+                               mp_context=multiprocessing.get_context("spawn"))
+    processes = []
+    try:
+        # the workers start with SIGINT blocked (the mask is inherited), so that a Ctrl-C while they
+        # import, before _quiet_worker runs, prints no traceback; here it waits until the mask is restored
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
+            processes = list(pool._processes.values())  # to stop them on Ctrl-C and to reap them
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         with progress(total=len(futures), desc=f"{desc} ({n} processes)", unit="run") as bar:
             for f in futures:
                 if f.exception() is not None:       # waits for it; a failed run ends the others
-                    for g in futures:
-                        g.cancel()
                     raise f.exception()
                 bar.update(1)
         return [f.result() for f in futures]
+    except BaseException:                           # Ctrl-C or a failed run: stop the running ones too
+        for p in processes:
+            p.terminate()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        for p in processes:                         # no <defunct> workers left behind
+            p.join()

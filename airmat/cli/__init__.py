@@ -5,8 +5,10 @@ Each subcommand lives in its own module here with two functions,
 ``func``) and ``run(args) -> int``. Modules import the numerical
 libraries inside ``run`` so that ``airmat --help`` stays fast.
 The CLI only parses arguments, calls the library, writes files and sets
-the exit code: user errors (:class:`airmat.errors.InputError`) become exit
-code 2 and one line on stderr.
+the exit code (:mod:`airmat.cli._exit`): user errors
+(:class:`airmat.errors.InputError`) become exit code 2 and one line on
+stderr; a solver that did not converge, exit code 3 with the results
+written; Ctrl-C, one line and exit code 130 (:mod:`airmat.cli.sigint`).
 """
 
 from __future__ import annotations
@@ -14,11 +16,17 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 
-from airmat import __version__
-from airmat.errors import AirmatError, InputError
-from airmat.progress import set_progress
+from airmat.cli import sigint
+
+sigint.install()  # before anything heavy: Ctrl-C works from the first instant
+
+from airmat import __version__  # noqa: E402
+from airmat.cli._exit import BAD_INPUT, FAILED, INTERRUPTED  # noqa: E402
+from airmat.errors import AirmatError, InputError  # noqa: E402
+from airmat.progress import set_progress  # noqa: E402
 
 __all__ = ["main", "build_parser"]
 
@@ -33,13 +41,25 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"airmat {self.prog.split()[-1]}: {message}\n")
 
 
+def seed(text: str) -> int:
+    """The ``--seed`` value: an integer in [0, 2**32), as numpy's generators take (else exit 2)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer in [0, 2**32), got {text!r}") from None
+    if not 0 <= value < 2 ** 32:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2**32), got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="airmat", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"airmat {__version__}")
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("-v", "--verbose", action="count", default=0, help="debug log output")
     common.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors, no progress bars")
-    common.add_argument("--seed", type=int, default=0, help="seed of every random step (default 0)")
+    common.add_argument("--seed", type=seed, default=0,
+                        help="seed of every random step: an integer in [0, 2**32) (default 0)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in COMMANDS:
@@ -62,24 +82,58 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the ``airmat`` command line; returns the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    _configure_logging(args.verbose, args.quiet)
-    set_progress(False if args.quiet else None)
+    """Run the ``airmat`` command line; returns the exit code (:mod:`airmat.cli._exit`)."""
+    sigint.install()
+    return _exit_code(_main(argv), as_command=argv is None)
+
+
+def _main(argv):
+    words = sys.argv[1:] if argv is None else argv
+    command = next((f"airmat {w}" for w in words if w in COMMANDS), "airmat")  # until the parser knows
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        command = f"airmat {args.command}"
+        _configure_logging(args.verbose, args.quiet)
+        set_progress(False if args.quiet else None)
         return int(args.func(args) or 0)
     except InputError as err:
-        print(f"airmat {args.command}: {err.one_line()}", file=sys.stderr)
-        return 2
+        print(f"{command}: {err.one_line()}", file=sys.stderr)
+        return BAD_INPUT
     except AirmatError as err:  # solver failures: not the user's fault, but still one line
-        print(f"airmat {args.command}: {err.one_line()}", file=sys.stderr)
-        return 1
+        if sigint.interrupted():
+            return _interrupted(command)
+        print(f"{command}: {err.one_line()}", file=sys.stderr)
+        return FAILED
     except KeyboardInterrupt:
-        print(f"airmat {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return _interrupted(command)
+    except Exception:
+        if sigint.interrupted():  # a library turned the interrupt into another error
+            return _interrupted(command)
+        raise
     finally:
         set_progress(None)
+
+
+def _interrupted(command: str) -> int:
+    sigint.ignore()  # a second Ctrl-C does not interrupt the report
+    print(f"{command}: interrupted", file=sys.stderr, flush=True)
+    return INTERRUPTED
+
+
+def _exit_code(code: int, as_command: bool) -> int:
+    """``code``; run as the command, an interrupt ends the process here with 130.
+
+    CPython remembers a KeyboardInterrupt that went through a nested
+    ``PyRun_*`` call (some extension modules run code that way while they are
+    imported) and, at exit, kills itself with SIGINT even though the
+    interrupt was handled: the exit status would be -2, not 130.
+    """
+    if as_command and code == INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(INTERRUPTED)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

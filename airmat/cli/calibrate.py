@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from airmat.errors import InputError
@@ -38,11 +39,18 @@ def _read_truth(path):
         raise InputError(f"cannot read the truth file: {err}", path=path) from None
     if not isinstance(truth, dict) or not {"delta_mm", "d_mm"} <= truth.keys():
         raise InputError("truth file must be a JSON object with delta_mm and d_mm", path=path)
+    for key in ("delta_mm", "d_mm", "sigma_per_m"):
+        value = truth.get(key)
+        if key in truth and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                 and math.isfinite(value)):
+            raise InputError(f"field '{key}' must be a finite number, got {value!r}", path=path, field=key)
     return truth
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.sigint import staged
     from calib.calibrate import calibrate
     from calib.plots import plot_corner, plot_curve
     from calib.calibration_io import summary_text, write_calibration
@@ -51,9 +59,18 @@ def run(args) -> int:
     truth = _read_truth(args.truth)
     cal = calibrate(args.manifest, scan_units=args.scan_units, n_walkers=args.walkers,
                     max_steps=args.max_steps, seed=args.seed)
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         write_calibration(cal, tmp, truth=truth)
         plot_curve(cal, tmp / "curve.png", truth=truth)
         plot_corner(cal.posterior, tmp / "corner.png", truths=truth)
     print(summary_text(cal, args.out))
-    return 0
+    return not_converged("calibrate", calibration_not_converged(cal))
+
+
+def calibration_not_converged(cal) -> list[str]:
+    """What did not converge in a calibration: the MCMC, the specimens' cylinder fits."""
+    what = [] if cal.posterior.converged else [f"MCMC: {cal.posterior.message}"]
+    fits = [s.scan for s in cal.specimens if not s.fit_converged]
+    if fits:
+        what.append(f"cylinder fit of {len(fits)} specimen(s): {', '.join(fits)}")
+    return what

@@ -78,7 +78,12 @@ def _published(cal, staged: Path, out: Path):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.calibrate import calibration_not_converged
+    from airmat.cli.design import design_not_converged
+    from airmat.cli.inflate import check_not_converged
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from calib.calibrate import calibrate
     from calib.calibration_io import write_calibration
@@ -101,7 +106,7 @@ def run(args) -> int:
     target, mattress = preset(args.preset)
     out = Path(args.out)
     seconds = {}
-    with staged_dir(out) as tmp:
+    with staged(out) as tmp:
         t = time.perf_counter()
         log.info("synth: %d points per scan", args.points)
         cs = calibration_set(tmp / "synth", n_points=args.points, seed=args.seed)
@@ -129,4 +134,5 @@ def run(args) -> int:
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
     print(summary(out, cal, cs.truth, result, checked, seconds))
-    return 0
+    return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)
+                         + check_not_converged(checked))

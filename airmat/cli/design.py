@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import re
 
+from airmat.cli._ranges import check_range
 from airmat.constants import PAPER_D
 from airmat.errors import InputError
 
@@ -88,6 +89,8 @@ def _params(args):
     from design.pipeline import DesignParams
 
     _positive(args, ["L_mm", "mu1_mm", "mu2_mm", "spacing_mm", "step_mm", "thickness_mm", "k_a1"])
+    check_range("--thickness-mm", args.thickness_mm)
+    check_range("--L-mm", args.L_mm)
     if not (args.margin_mm >= 0 and args.kappa_min_per_m >= 0 and args.weight_min >= 0
             and all(k is None or k >= 0 for k in (args.k_a2, args.k_a3))):
         raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --k-a2 and --k-a3 must be >= 0")
@@ -126,10 +129,13 @@ def summary_text(doc: dict, out) -> str:
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.sigint import staged
     from airmat.progress import progress_enabled
     from design.calibration_source import PAPER, load_calibration
     from design.design_io import write_design
+    from design.mattress import check_spacing
     from design.pipeline import design
     from design.stripes import check_stripe_params
 
@@ -139,11 +145,21 @@ def run(args) -> int:
     params = _params(args)
     calibration = load_calibration(args.calibration) if args.calibration else None
     mattress, load = _mattress_and_target(args)
+    try:
+        check_spacing(mattress, params.spacing)
+    except InputError as err:
+        raise InputError(f"--spacing-mm {args.spacing_mm:g}: {err.message}") from None
     L = params.L if params.L is not None else (calibration.L if calibration else PAPER["L"])
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
                     progress=progress_enabled())
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         doc = write_design(result, tmp)
     print(summary_text(doc, args.out))
-    return 0
+    return not_converged("design", design_not_converged(result))
+
+
+def design_not_converged(result) -> list[str]:
+    """What did not converge in a design: the U_A relaxation."""
+    relax = result.approx.relax
+    return [] if relax is None or relax.converged else [f"U_A relaxation: {relax.message}"]

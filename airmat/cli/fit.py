@@ -36,6 +36,8 @@ def add_scan_options(p, *, index=True):
 
 
 def run(args) -> int:
+    from airmat.cli._exit import not_converged
+    from airmat.cli.sigint import check
     from airmat.errors import InputError
     from calib.cylinder_stability import fit_cylinder_stable
     from calib.scan_io import read_scan
@@ -49,9 +51,11 @@ def run(args) -> int:
                                   strict=True)
     except InputError as err:
         raise err.with_path(scan.path)
+    check()
     json.dump(fit_to_json(fit, scan), sys.stdout, indent=2)
     sys.stdout.write("\n")
-    return 0
+    sys.stdout.flush()
+    return not_converged("fit", [] if fit.converged else [f"{scan.path}: cylinder fit: {fit.message}"])
 
 
 def fit_to_json(fit, scan) -> dict:

@@ -47,7 +47,11 @@ def table_row(design, check, seconds: float) -> str:
 def run(args) -> int:
     import dataclasses
 
-    from airmat.atomic import atomic_write_text, check_out_dir, staged_dir
+    from airmat.atomic import atomic_write_text, check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.design import design_not_converged
+    from airmat.cli.inflate import check_not_converged
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.inflation_check import check
     from check.report import check_dict, write_check
@@ -67,8 +71,8 @@ def run(args) -> int:
     workers = jobs(args)
     calibration = load_calibration(args.calibration) if args.calibration else None
     out = Path(args.out)
-    rows, results = [], {}
-    with staged_dir(out) as tmp:
+    rows, results, timings, what = [], {}, {}, []
+    with staged(out) as tmp:
         for name in names:
             target, mattress = preset(name)
             t = time.perf_counter()
@@ -82,11 +86,14 @@ def run(args) -> int:
             rows.append(table_row(result, checked, sum(seconds.values())))
             doc = check_dict(checked)
             results[name] = {"report": report_dict(result.approx.report), "deviation": doc["deviation"],
-                             "envelope": doc["envelope"], "seconds": seconds}
+                             "envelope": doc["envelope"], "converged": doc["converged"]}
+            timings[name] = {k: round(v, 3) for k, v in seconds.items()}
+            what += [f"{name}: {w}" for w in design_not_converged(result) + check_not_converged(checked)]
             print(rows[-1], flush=True)
         sep = "|" + "---|" * (HEADER.count("|") - 1)
         table = "\n".join([HEADER, sep] + rows)
         atomic_write_text(tmp / "gallery.md", table + "\n")
+        results["timings_s"] = timings  # the one field that differs between runs of the same inputs
         atomic_write_text(tmp / "gallery.json", json.dumps(results, indent=2) + "\n")
     print(f"\n{table}\n\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
-    return 0
+    return not_converged("gallery", what)

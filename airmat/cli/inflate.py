@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._ranges import check_range
 from airmat.errors import InputError
 
 
@@ -25,7 +26,9 @@ def add_parser(sub, parents):
 def run(args) -> int:
     from dataclasses import replace
 
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.inflation_check import check
     from design.design_io import read_design
@@ -37,14 +40,19 @@ def run(args) -> int:
         raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
     params = Parameters()
     if args.pressure_pa is not None:
-        if not (args.pressure_pa > 0):
-            raise InputError(f"--pressure-pa must be > 0, got {args.pressure_pa!r}")
+        check_range("--pressure-pa", args.pressure_pa)
         params = replace(params, pressure=args.pressure_pa)
     workers = jobs(args)
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
                    workers=workers)
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         doc = write_check(result, tmp)
     print(summary_text(doc, args.out))
-    return 0
+    return not_converged("inflate", check_not_converged(result))
+
+
+def check_not_converged(result) -> list[str]:
+    """What did not converge in an inflation check: each run (median, lo95, hi95) by name."""
+    return [f"inflation with the {k} string lengths: {r.inflation.message}"
+            for k, r in result.runs.items() if not r.inflation.converged]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from airmat.cli._ranges import check_range
 from airmat.errors import InputError
 
 
@@ -11,6 +12,8 @@ def _ratios(text: str) -> tuple:
     except ValueError:
         raise InputError(f"--l-over-L {text!r}: expected comma-separated numbers, "
                          "e.g. 0.3,0.5,0.7,0.9") from None
+    if not values or not all(0 < r < 1 for r in values):
+        raise InputError(f"--l-over-L {text!r}: every ratio l/L must lie in (0, 1), e.g. 0.3,0.5,0.7,0.9")
     return values
 
 
@@ -33,11 +36,21 @@ def add_parser(sub, parents):
 
 def run(args) -> int:
     from airmat.atomic import check_out_dir
+    from airmat.cli.sigint import check
     from airmat.units import MM
     from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
     check_out_dir(args.outdir)
+    check_range("--d-mm", args.d_mm)
+    check_range("--L-mm", args.L_mm)
+    if not (0 <= args.delta_mm < args.L_mm / 2):
+        raise InputError(f"--delta-mm: {args.delta_mm:g} mm is outside [0, L/2) = [0, {args.L_mm / 2:g}) mm")
+    if not (0 <= args.scatter <= 1):
+        raise InputError(f"--scatter: {args.scatter:g} is outside [0, 1] (a log-sd)")
+    if not (1000 <= args.points <= 10_000_000):
+        raise InputError(f"--points: {args.points} is outside [1000, 10000000]")
     ratios = DEFAULT_L_OVER_L if args.l_over_L is None else _ratios(args.l_over_L)
+    check()  # a Ctrl-C that a library's import swallowed
     cs = calibration_set(args.outdir, delta=args.delta_mm * MM, d=args.d_mm * MM, L=args.L_mm * MM,
                          l_over_L=ratios, n_points=args.points, scatter=args.scatter,
                          seed=args.seed)

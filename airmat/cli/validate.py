@@ -29,10 +29,11 @@ def _write(points, folder, resolution_mm):
     rows = [{"l_over_L": p.l_over_L, "kappa_sim_per_m": round(p.kappa_sim, 4),
              "kappa_sim_se_per_m": round(p.kappa_sim_se, 4), "kappa_strings_per_m": round(p.kappa_strings, 4),
              "kappa_eq3_per_m": round(p.kappa_eq3, 4),
-             "converged": p.converged, "iterations": p.n_iter, "seconds": round(p.seconds, 2)} for p in points]
+             "converged": p.converged, "iterations": p.n_iter} for p in points]
     doc = {"experiment": "strip with parallel bottom strings, L = 300 mm, d = 70 mm, Delta = 0; kappa of the "
                          "simulated mid-surface by calib's cylinder fit", "resolution_mm": resolution_mm,
-           "points": rows}
+           "points": rows, "converged": all(p.converged for p in points),
+           "timings_s": {f"{p.l_over_L:g}": round(p.seconds, 2) for p in points}}
     atomic_write_text(folder / "validate.json", json.dumps(doc, indent=2) + "\n")
     atomic_write_text(folder / "validate.csv", "l_over_L,kappa_sim_per_m,kappa_sim_se_per_m,kappa_strings_per_m,"
                       "kappa_eq3_per_m\n" +
@@ -43,7 +44,9 @@ def _write(points, folder, resolution_mm):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.validation import validate_equation3
 
@@ -58,11 +61,12 @@ def run(args) -> int:
         raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
     workers = jobs(args)
     points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers)
-    with staged_dir(args.out) as tmp:
+    with staged(args.out) as tmp:
         rows = _write(points, tmp, args.resolution_mm)
     print("l/L   cylinder fit κ (1/m)   along strings κ (1/m)   Equation 3, Δ = 0 (1/m)")
     for r in rows:
         print(f"{r['l_over_L']:.2f}  {r['kappa_sim_per_m']:8.2f} ± {2 * r['kappa_sim_se_per_m']:.2f}"
               f"       {r['kappa_strings_per_m']:8.2f}              {r['kappa_eq3_per_m']:8.2f}")
     print(f"wrote validate.json, validate.csv, validate.png to {args.out}")
-    return 0
+    return not_converged("validate", [f"inflation at l/L = {p.l_over_L:g}: {p.message}"
+                                      for p in points if not p.converged])
