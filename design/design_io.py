@@ -3,7 +3,7 @@
 :func:`write_design` writes every file of a :class:`~design.pipeline.DesignResult`
 into a folder (``design.json``, ``approx_surface.ply`` / ``.obj``,
 ``calibration_samples.npz``, ``pattern.svg``, ``pattern.dxf``,
-``cutting_list.csv``, ``preview.png``); :func:`read_design` builds the same
+``cutting_list.csv``, ``preview.png``, ``design.3dm`` for Rhino); :func:`read_design` builds the same
 ``DesignResult`` from such a folder, so that the check takes a design from
 memory or from files alike. Files are in millimetres (lengths rounded to
 0.01 mm in ``design.json``); the library side is SI.
@@ -35,10 +35,10 @@ from design.pipeline import DesignParams, DesignResult
 from design.surface import ApproxSurface
 from design.surface_io import read_approx_surface, write_approx_surface
 
-__all__ = ["write_design", "read_design", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
+__all__ = ["write_design", "read_design", "document", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
 
 OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "calibration_samples.npz",
-                "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png")
+                "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png", "design.3dm")
 #: the three string lengths of every dash in design.json ``l_mm``
 LENGTH_KEYS = ("median", "lo95", "hi95")
 
@@ -65,6 +65,15 @@ def _write_samples(path: Path, calibration: CalibrationSource) -> None:
     atomic_write_bytes(path, npz_bytes(delta_m=calibration.delta, d_m=calibration.d, L_m=np.float64(calibration.L)))
 
 
+def document(result: DesignResult) -> dict:
+    """The design document (content of design.json, mm) of a DesignResult: what every workshop file shows."""
+    a = result.approx
+    return design_document(result.pattern, mattress=a.mattress, calibration=result.calibration,
+                           report=report_dict(a.report) if a.report is not None else None,
+                           parameters=result.params.file_dict(result.params.L), seed=result.seed,
+                           name=result.name)
+
+
 def write_design(result: DesignResult, folder) -> dict:
     """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
 
@@ -73,13 +82,11 @@ def write_design(result: DesignResult, folder) -> dict:
     dict
         The design document (content of design.json).
     """
-    from design.export import write_cutting_list, write_dxf, write_preview, write_svg
+    from design.export import write_3dm, write_cutting_list, write_dxf, write_preview, write_svg
 
     folder = Path(folder)
     a, m = result.approx, result.approx.mattress
-    doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
-                          report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
-                          seed=result.seed, name=result.name)
+    doc = document(result)
     write_design_json(folder / "design.json", doc)
     write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
     _write_samples(folder / "calibration_samples.npz", result.calibration)
@@ -87,6 +94,7 @@ def write_design(result: DesignResult, folder) -> dict:
     write_dxf(folder / "pattern.dxf", doc)
     write_cutting_list(folder / "cutting_list.csv", doc)
     write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
+    write_3dm(folder / "design.3dm", doc, a.xyz, a.uv, a.faces)
     return doc
 
 

@@ -42,7 +42,7 @@ def add_parser(sub, parents):
     p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
-                        "cutting_list.csv, preview.png")
+                        "cutting_list.csv, preview.png, design.3dm (Rhino)")
     p.set_defaults(func=run)
 
 
@@ -119,7 +119,7 @@ def summary_text(doc: dict, out) -> str:
     if flagged:
         lines.append(f"  {flagged} strings beyond reach of the calibration (flagged in design.json)")
     lines.append(f"  wrote design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, cutting_list.csv, "
-                 f"preview.png to {out}")
+                 f"preview.png, design.3dm to {out}")
     return "\n".join(lines)
 
 
