@@ -133,6 +133,15 @@ def _points(value, what: str, path: Path) -> np.ndarray:
     return pts * MM
 
 
+def _grid_node(node, what: str, path: Path) -> tuple | None:
+    if node is None:
+        return None
+    try:
+        return int(node["row"]), int(node["col"])
+    except (KeyError, TypeError, ValueError):
+        raise InputError(f"{what} must be null or {{row, col, u_mm, v_mm}}", path=path) from None
+
+
 def _string(dash, k: int, path: Path, width: float, height: float) -> TensionString:
     """One dash entry of design.json as a TensionString (SI), checked."""
     did = str(dash.get("id", f"#{k}")) if isinstance(dash, dict) else f"#{k}"
@@ -161,7 +170,9 @@ def _string(dash, k: int, path: Path, width: float, height: float) -> TensionStr
         float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
     m = _ID.match(did)
     line, index = (int(m.group(1)), int(m.group(2))) if m else (0, k + 1)
-    return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length),
+    nodes = [_grid_node(dash.get(f"{end}_node"), f"dash {did} {end}_node", path) for end in ("a", "b")]
+    return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length,
+                                   a_node=nodes[0], b_node=nodes[1]),
                          kappa=kappa, side=side, l_median=l[0], l_lo95=l[1], l_hi95=l[2],
                          flags=tuple(str(f) for f in dash.get("flags", ())))
 
@@ -194,8 +205,9 @@ def _params(doc: dict, path: Path) -> DesignParams:
     if not isinstance(p, dict):
         raise InputError("field 'parameters' must be an object", path=path)
     fields = {"L": "L_mm", "mu1": "mu1_mm", "mu2": "mu2_mm", "margin": "margin_mm", "step": "step_mm",
-              "spacing": "spacing_mm"}
+              "spacing": "spacing_mm", "tie_grid": "tie_grid_mm"}
     kw = {k: _number(p[v], f"parameters.{v}", path) * MM for k, v in fields.items() if v in p}
+    kw.setdefault("tie_grid", 0.0)      # a folder from before the tie grid: its ends were free
     kw.update({k: _number(p[k], f"parameters.{k}", path) for k in ("k_a1", "k_a2", "k_a3", "weight_min")
                if k in p})
     if "kappa_min_per_m" in p:

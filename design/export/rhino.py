@@ -16,11 +16,16 @@ Every string curve is named by its id and carries the user text of :data:`STRING
 design has them). The lifted polylines lie on Ŝ, the mattress's mid-surface.
 rhino3dm adds mesh vertices one by one (it has no bulk setter); the file is
 written to a temporary file and published with :mod:`airmat.atomic`.
+
+Layer and object GUIDs are derived from their names (uuid5), so the same design
+gives the same model; the bytes still differ between runs in the two time
+stamps (and their checksum) that OpenNURBS writes into the file's header.
 """
 
 from __future__ import annotations
 
 import tempfile
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +40,7 @@ FACE_FAMILIES = ("top/k1", "top/k2", "bottom/k1", "bottom/k2")
 #: user text of every string curve
 STRING_KEYS = ("id", "face", "family", "l_median_mm", "l_lo95_mm", "l_hi95_mm", "kappa_per_m", "L_mm",
                "a_node", "b_node")
+_NAMESPACE = uuid.UUID("6f1c2a8e-4d0b-5e7a-9c3f-2b8d1e0a7c55")   # airmat's: ids are uuid5(this, path)
 _COLOURS = {"top/k1": (220, 30, 30), "top/k2": (30, 60, 220), "bottom/k1": (240, 140, 0),
             "bottom/k2": (0, 170, 170)}
 
@@ -99,8 +105,11 @@ def _layer(model, name: str, colour=(0, 0, 0), parent=None, visible: bool = True
     layer.Name = name
     layer.Color = (*colour, 255)
     layer.Visible = visible
+    path = name
     if parent is not None:
         layer.ParentLayerId = model.Layers.FindIndex(parent).Id
+        path = f"{model.Layers.FindIndex(parent).Name}::{name}"
+    layer.Id = uuid.uuid5(_NAMESPACE, "layer " + path)
     return model.Layers.Add(layer)
 
 
@@ -110,6 +119,7 @@ def _attributes(layer: int, name: str, text: dict | None = None):
     attr = r.ObjectAttributes()
     attr.LayerIndex = layer
     attr.Name = name
+    attr.Id = uuid.uuid5(_NAMESPACE, f"object {layer} {name}")
     for key, value in (text or {}).items():
         attr.SetUserString(key, str(value))
     return attr
