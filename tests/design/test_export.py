@@ -13,6 +13,7 @@ from design.calibration_source import default_calibration
 from design.export import (design_document, read_design_json, write_cutting_list, write_design_json,
                            write_dxf, write_preview, write_svg)
 from design.export.preview import face_sigma, preview_figure
+from design.export.dxf import GAP_MM
 from design.export.svg import svg_transform
 from design.mattress import Mattress
 from design.string_lengths import string_pattern
@@ -110,18 +111,63 @@ def test_dxf_reopens_in_mm_with_a_layer_per_face_and_family(written):
     dxf = ezdxf.readfile(folder / "pattern.dxf")
     assert dxf.units == ezdxf.units.MM and dxf.header["$INSUNITS"] == ezdxf.units.MM
     layers = {layer.dxf.name for layer in dxf.layers}
-    assert {"TOP_K1", "TOP_K2", "BOTTOM_K1", "BOTTOM_K2", "OUTLINE"} <= layers
+    assert {"TOP_K1", "TOP_K2", "BOTTOM_K1", "BOTTOM_K2", "OUTLINE", "TIES"} <= layers
     msp = dxf.modelspace()
-    texts = {t.dxf.text: t.dxf.layer for t in msp.query("TEXT")}
+    texts = {t.dxf.text.split("  ")[0]: t for t in msp.query("TEXT")}
     polys = [p for p in msp.query("LWPOLYLINE") if p.dxf.layer != "OUTLINE"]
     assert len(polys) == len(doc["dashes"])
-    for p, d in zip(polys, doc["dashes"]):
+    assert {d["side"] for d in doc["dashes"]} == {"top", "bottom"}
+    ties = np.array([(c.dxf.center.x, c.dxf.center.y) for c in msp.query("CIRCLE") if c.dxf.layer == "TIES"])
+    assert len(ties) == 2 * len(doc["dashes"])
+    by_face = [d for face in ("top", "bottom") for d in doc["dashes"] if d["side"] == face]
+    for p, d in zip(polys, by_face):
         layer = f"{d['side'].upper()}_{d['family'].upper()}"
-        assert p.dxf.layer == layer and texts[d["id"]] == layer
-        np.testing.assert_allclose(np.array(p.get_points("xy")), d["polyline_mm"], atol=1e-9)
-    outline = [p for p in msp.query("LWPOLYLINE") if p.dxf.layer == "OUTLINE"][0]
-    np.testing.assert_allclose(np.array(outline.get_points("xy")),
-                               [[0, 0], [830, 0], [830, 740], [0, 740]])
+        assert p.dxf.layer == layer and texts[d["id"]].dxf.layer == layer
+        # the string's length to cut is written beside it
+        assert texts[d["id"]].dxf.text == f"{d['id']}  l={d['l_mm']['median']:.1f} mm"
+        u, v = np.array(d["polyline_mm"]).T
+        # top face as seen from above (Ω itself), bottom face mirrored to the right of it
+        x = u if d["side"] == "top" else 2 * 830 + GAP_MM - u
+        np.testing.assert_allclose(np.array(p.get_points("xy")), np.column_stack([x, v]), atol=1e-9)
+        for end in (np.array([x[0], v[0]]), np.array([x[-1], v[-1]])):
+            assert np.min(np.linalg.norm(ties - end, axis=1)) < 1e-9
+    outlines = [np.array(p.get_points("xy")) for p in msp.query("LWPOLYLINE") if p.dxf.layer == "OUTLINE"]
+    np.testing.assert_allclose(outlines[0], [[0, 0], [830, 0], [830, 740], [0, 740]])
+    np.testing.assert_allclose(outlines[1], [[910, 0], [1740, 0], [1740, 740], [910, 740]])
+    labels = [t.dxf.text for t in msp.query("TEXT") if t.dxf.layer == "OUTLINE"]
+    assert "BOTTOM face, seen from below (mirrored)" in labels and "TOP face, seen from above" in labels
+
+
+def test_dxf_header_extents_and_audit(written):
+    folder, _, _ = written
+    dxf = ezdxf.readfile(folder / "pattern.dxf")
+    lo, hi = np.array(dxf.header["$EXTMIN"]), np.array(dxf.header["$EXTMAX"])
+    # the two faces side by side, their labels above and the origin labels below
+    assert lo[0] <= 0 and lo[1] < 0 and 1740 <= hi[0] < 1800 and 740 < hi[1] < 820
+    assert np.all(np.abs(np.concatenate([lo, hi])) < 1e4)
+    auditor = dxf.audit()
+    assert not auditor.has_errors, [e.message for e in auditor.errors]
+
+
+def test_dxf_is_byte_stable_across_hash_seeds(tmp_path):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = ("import sys; sys.path[:0] = [sys.argv[2], sys.argv[3]]\n"
+              "from test_export import _document\n"
+              "from design.export.dxf import write_dxf\n"
+              "write_dxf(sys.argv[1], _document()[0])\n")
+    data = []
+    for seed in ("1", "10"):     # seeds 1 and 10 ordered ezdxf's CLASSES differently before the fix
+        out = tmp_path / f"h{seed}.dxf"
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        subprocess.run([sys.executable, "-c", script, str(out), str(root), str(root / "tests" / "design")],
+                       check=True, env=env, cwd=tmp_path)
+        data.append(out.read_bytes())
+    assert data[0] == data[1]
 
 
 def test_cutting_list_is_sorted_for_the_workshop_and_agrees(written):
