@@ -14,7 +14,7 @@ from design.export import (design_document, read_design_json, write_cutting_list
                            write_dxf, write_preview, write_svg)
 from design.export.preview import face_sigma, preview_figure
 from design.export.dxf import GAP_MM
-from design.export.svg import svg_transform
+from design.export.svg import LAYOUT, svg_transform
 from design.mattress import Mattress
 from design.string_lengths import string_pattern
 from design.stripes import StripeParams, trace_stripes
@@ -99,7 +99,24 @@ def test_svg_is_1_to_1_mm_and_agrees_with_the_json(written):
         poly = np.array(d["polyline_mm"])
         x, y = svg_transform(d["side"], poly[:, 0], poly[:, 1], W, H)
         np.testing.assert_allclose(pts, np.column_stack([x, y]), atol=0.006)
-        assert d["id"] in [t.text for t in g.iter(f"{SVG}text")]
+        label = [t for t in g.iter(f"{SVG}text")]
+        assert [t.text for t in label] == [f"{d['id']}  l={d['l_mm']['median']:.1f}"]
+        # beside the string, not on it: the anchor is off every segment by about half the font size
+        p = np.array([float(label[0].get("x")), float(label[0].get("y"))])
+        a, b = pts[:-1], pts[1:]
+        t = np.clip(np.einsum("ij,ij->i", p - a, b - a) / np.maximum(np.einsum("ij,ij->i", b - a, b - a), 1e-12), 0, 1)
+        dist = np.linalg.norm(a + t[:, None] * (b - a) - p, axis=1).min()
+        assert 0.5 * LAYOUT["font"] <= dist <= 0.7 * LAYOUT["font"]
+    # every text fits on the page (width estimated at 0.6 font sizes per character)
+    for t in root.iter(f"{SVG}text"):
+        x, size, n = float(t.get("x")), float(t.get("font-size")), len(t.text or "")
+        if t.get("transform"):
+            continue        # the string labels, checked above to sit beside their strings inside the faces
+        start = {"start": x, "middle": x - 0.3 * size * n, "end": x - 0.6 * size * n}[t.get("text-anchor")]
+        assert 0 <= start and start + 0.6 * size * n <= w_mm, t.text
+        assert size <= float(t.get("y")) <= h_mm, t.text
+    bar = groups["scale-bar"].find(f"{SVG}line")
+    assert float(bar.get("x2")) - float(bar.get("x1")) == pytest.approx(100.0)
     # the bottom face is mirrored: u = 0 lies at its right edge
     x0, _ = svg_transform("bottom", 0.0, 0.0, W, H)
     xW, _ = svg_transform("bottom", W, 0.0, W, H)
