@@ -243,3 +243,25 @@ def test_preview_figure_is_the_figure_write_preview_saves(written, tmp_path):
     fig.savefig(buf, format="png", dpi=40)
     assert buf.getvalue() == (folder / "preview.png").read_bytes()
 
+
+
+def test_preview_names_every_string_and_its_sigma_scale_holds_the_report(written):
+    from matplotlib.collections import LineCollection
+
+    from design.export.preview import id_font_size, sigma_limits
+
+    _, doc, _ = written
+    rep = {**doc["report"], "sigma": {"min": 0.955, "avg": 1.0, "max": 1.01}}
+    fig = preview_figure({**doc, "report": rep}, *_cylinder_surface())
+    pattern = fig.axes[0]
+    ids = [t.get_text() for t in pattern.texts]
+    assert sorted(ids) == sorted(d["id"] for d in doc["dashes"])
+    # strings drawn thick and dark-outlined, the bottom face dashed (not dotted)
+    lcs = [c for c in pattern.collections if isinstance(c, LineCollection)]
+    assert all(lc.get_linewidths()[0] >= 2.5 and lc.get_path_effects() for lc in lcs)
+    surface_bar = fig.axes[3]
+    lo, hi = surface_bar.get_ylim()
+    assert lo <= 0.955 and hi >= 1.045 - 1e-9
+    assert sigma_limits(np.array([1.0]), {"sigma": {"min": 0.955, "max": 1.0}}) == (0.955, 1.045)
+    # legible at the large presets' 150 strings, and not smaller than 4.5 pt
+    assert id_font_size(20) == 7.0 and id_font_size(150) == 4.5 and id_font_size(500) == 4.5
