@@ -6,7 +6,7 @@ Public API (SI units: metres, 1/m):
   lengths and at both tolerance ends (``inflation_check``).
 - :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ
   (``compare``).
-- :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``deviation.png`` (``report``).
+- :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
 """
 

@@ -1,4 +1,9 @@
-"""Files of the inflation check: inflate.json, inflated.ply, deviation.png (mm, 1/m).
+"""Files of the inflation check: inflate.json, inflated.ply, inflated.3dm, deviation.png (mm, 1/m).
+
+``inflated.3dm`` is the design's Rhino file (:mod:`design.export.rhino`) with the
+inflated shapes added: each run's mid-surface at Ŝ's vertices after the Kabsch
+alignment of the check (``CheckRun.deviation.aligned``), i.e. in Ŝ's frame, on
+layers ``inflated::median`` (visible), ``inflated::lo95`` and ``inflated::hi95`` (hidden).
 
 :func:`deviation_figure` returns the figure of deviation.png as a
 ``matplotlib.figure.Figure`` (no pyplot state, :mod:`airmat.figures`).
@@ -96,8 +101,11 @@ def deviation_figure(check):
 
 
 def write_check(check, folder) -> dict:
-    """Write inflate.json, inflated.ply and deviation.png into ``folder``; return the JSON document."""
+    """Write inflate.json, inflated.ply, inflated.3dm and deviation.png into ``folder``; return the JSON document."""
     import trimesh
+
+    from design.design_io import document
+    from design.export.rhino import write_3dm
 
     folder = Path(folder)
     doc = check_dict(check)
@@ -105,6 +113,9 @@ def write_check(check, folder) -> dict:
     inf = check.runs["median"].inflation
     mesh = trimesh.Trimesh(inf.xyz * M_TO_MM, inf.mesh.faces, process=False)
     atomic_write_bytes(folder / "inflated.ply", trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
+    a = check.design.approx
+    write_3dm(folder / "inflated.3dm", document(check.design), a.xyz, a.uv, a.faces,
+              shapes={k: r.deviation.aligned for k, r in check.runs.items()})
     save_png(deviation_figure(check), folder / "deviation.png", dpi=110)
     return doc
 
@@ -123,5 +134,5 @@ def summary_text(doc: dict, out) -> str:
         err = np.array([x["kappa_realized_per_m"] - x["kappa_target_per_m"] for x in doc["dashes"]])
         lines.append(f"  realized minus target curvature per dash: mean {err.mean():+.2f}, "
                      f"RMS {np.sqrt(np.mean(err ** 2)):.2f} 1/m")
-    lines.append(f"  wrote inflate.json, inflated.ply, deviation.png to {out}")
+    lines.append(f"  wrote inflate.json, inflated.ply, inflated.3dm, deviation.png to {out}")
     return "\n".join(lines)

@@ -35,4 +35,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "string_lengths": ["string_pattern"],
     "pipeline": ["DesignParams", "DesignResult", "design"],
     "design_io": ["read_design", "write_design"],
+    "retie": ["RetiePlan", "retie_plan"],
+    "tie_grid": ["snap_dashes", "TieGridReport"],
 })

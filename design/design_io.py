@@ -3,7 +3,7 @@
 :func:`write_design` writes every file of a :class:`~design.pipeline.DesignResult`
 into a folder (``design.json``, ``approx_surface.ply`` / ``.obj``,
 ``calibration_samples.npz``, ``pattern.svg``, ``pattern.dxf``,
-``cutting_list.csv``, ``preview.png``); :func:`read_design` builds the same
+``cutting_list.csv``, ``preview.png``, ``design.3dm`` for Rhino); :func:`read_design` builds the same
 ``DesignResult`` from such a folder, so that the check takes a design from
 memory or from files alike. Files are in millimetres (lengths rounded to
 0.01 mm in ``design.json``); the library side is SI.
@@ -36,10 +36,10 @@ from design.pipeline import DesignParams, DesignResult
 from design.surface import ApproxSurface
 from design.surface_io import read_approx_surface, write_approx_surface
 
-__all__ = ["write_design", "read_design", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
+__all__ = ["write_design", "read_design", "document", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
 
 OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "calibration_samples.npz",
-                "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png")
+                "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png", "design.3dm")
 #: the three string lengths of every dash in design.json ``l_mm``
 LENGTH_KEYS = ("median", "lo95", "hi95")
 
@@ -66,6 +66,19 @@ def _write_samples(path: Path, calibration: CalibrationSource) -> None:
     atomic_write_bytes(path, npz_bytes(delta_m=calibration.delta, d_m=calibration.d, L_m=np.float64(calibration.L)))
 
 
+def document(result: DesignResult) -> dict:
+    """The design document (content of design.json, mm) of a DesignResult: what every workshop file shows."""
+    a = result.approx
+    doc = design_document(result.pattern, mattress=a.mattress, calibration=result.calibration,
+                          report=report_dict(a.report) if a.report is not None else None,
+                          parameters=result.params.file_dict(result.params.L), seed=result.seed,
+                          name=result.name)
+    if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
+        doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
+                             "message": str(a.relax.message)}
+    return doc
+
+
 def write_design(result: DesignResult, folder) -> dict:
     """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
 
@@ -74,16 +87,11 @@ def write_design(result: DesignResult, folder) -> dict:
     dict
         The design document (content of design.json).
     """
-    from design.export import write_cutting_list, write_dxf, write_preview, write_svg
+    from design.export import write_3dm, write_cutting_list, write_dxf, write_preview, write_svg
 
     folder = Path(folder)
     a, m = result.approx, result.approx.mattress
-    doc = design_document(result.pattern, mattress=m, calibration=result.calibration,
-                          report=report_dict(a.report), parameters=result.params.file_dict(result.params.L),
-                          seed=result.seed, name=result.name)
-    if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
-        doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
-                             "message": str(a.relax.message)}
+    doc = document(result)
     write_design_json(folder / "design.json", doc)
     write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
     _write_samples(folder / "calibration_samples.npz", result.calibration)
@@ -91,6 +99,7 @@ def write_design(result: DesignResult, folder) -> dict:
     write_dxf(folder / "pattern.dxf", doc)
     write_cutting_list(folder / "cutting_list.csv", doc)
     write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
+    write_3dm(folder / "design.3dm", doc, a.xyz, a.uv, a.faces)
     return doc
 
 
@@ -129,6 +138,15 @@ def _points(value, what: str, path: Path) -> np.ndarray:
     return pts * MM
 
 
+def _grid_node(node, what: str, path: Path) -> tuple | None:
+    if node is None:
+        return None
+    try:
+        return int(node["row"]), int(node["col"])
+    except (KeyError, TypeError, ValueError):
+        raise InputError(f"{what} must be null or {{row, col, u_mm, v_mm}}", path=path) from None
+
+
 def _string(dash, k: int, path: Path, width: float, height: float) -> TensionString:
     """One dash entry of design.json as a TensionString (SI), checked."""
     did = str(dash.get("id", f"#{k}")) if isinstance(dash, dict) else f"#{k}"
@@ -157,7 +175,9 @@ def _string(dash, k: int, path: Path, width: float, height: float) -> TensionStr
         float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
     m = _ID.match(did)
     line, index = (int(m.group(1)), int(m.group(2))) if m else (0, k + 1)
-    return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length),
+    nodes = [_grid_node(dash.get(f"{end}_node"), f"dash {did} {end}_node", path) for end in ("a", "b")]
+    return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length,
+                                   a_node=nodes[0], b_node=nodes[1]),
                          kappa=kappa, side=side, l_median=l[0], l_lo95=l[1], l_hi95=l[2],
                          flags=_flags(dash.get("flags", ()), did, path))
 
@@ -197,8 +217,9 @@ def _params(doc: dict, path: Path) -> DesignParams:
     if not isinstance(p, dict):
         raise InputError("field 'parameters' must be an object", path=path)
     fields = {"L": "L_mm", "mu1": "mu1_mm", "mu2": "mu2_mm", "margin": "margin_mm", "step": "step_mm",
-              "spacing": "spacing_mm"}
+              "spacing": "spacing_mm", "tie_grid": "tie_grid_mm"}
     kw = {k: _number(p[v], f"parameters.{v}", path) * MM for k, v in fields.items() if v in p}
+    kw.setdefault("tie_grid", 0.0)      # a folder from before the tie grid: its ends were free
     kw.update({k: _number(p[k], f"parameters.{k}", path) for k in ("k_a1", "k_a2", "k_a3", "weight_min")
                if k in p})
     if "kappa_min_per_m" in p:

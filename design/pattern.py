@@ -32,6 +32,9 @@ class Dash:
         Points of the dash on Ω (m), from end ``a`` to end ``b``.
     length : float
         Arc length of ``polyline`` (m), the geodesic spacing L of the string ends.
+    a_node, b_node : (int, int) or None
+        (row, col) of the mattress's grid node each end is tied to
+        (:mod:`design.tie_grid`), None for free ends.
     """
 
     id: str
@@ -40,6 +43,8 @@ class Dash:
     index: int
     polyline: np.ndarray = field(repr=False)
     length: float
+    a_node: tuple | None = None
+    b_node: tuple | None = None
 
     @property
     def a(self) -> np.ndarray:
@@ -101,6 +106,8 @@ class Pattern:
         Dashes per family whose |κ| is too small to need a string.
     notes : tuple of str
         What the tracer and the length step skipped and why.
+    tie_grid : design.tie_grid.TieGridReport or None
+        Grid pitch and how far snapping the ends to it moved them; None when not known.
     """
 
     strings: tuple
@@ -108,6 +115,7 @@ class Pattern:
     n_dashes: dict
     n_no_string: dict
     notes: tuple = ()
+    tie_grid: object = field(default=None, repr=False, compare=False)
 
     def count(self, side: str, family: str) -> int:
         """Number of strings on ``side`` ("top"/"bottom") of ``family`` ("k1"/"k2")."""

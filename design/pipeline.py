@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from airmat.errors import InputError
 from airmat.units import M_TO_MM
 from calib.model import kappa_max
 from design.calibration_source import CalibrationSource, default_calibration
@@ -25,6 +26,7 @@ from design.field import MattressField
 from design.pattern import Pattern
 from design.string_lengths import string_pattern
 from design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
+from design.tie_grid import snap_dashes
 from design.surface import ApproxSurface, approximate_surface, mattress_field
 
 __all__ = ["DesignParams", "DesignResult", "design"]
@@ -69,6 +71,10 @@ class DesignParams:
         Direction weight below which lines stop (umbilics).
     n_kappa_points : int
         Field samples per dash for its representative κ (paper: N).
+    tie_grid : float
+        Pitch of the grid mesh on the mattress's faces (m, paper §2.1: 0.02): each
+        dash's ends are snapped to its nodes and L recomputed per dash
+        (:mod:`design.tie_grid`); 0 leaves the ends free.
     """
 
     L: float | None = None
@@ -83,6 +89,7 @@ class DesignParams:
     kappa_min: float = 0.25
     weight_min: float = 0.0
     n_kappa_points: int = 10
+    tie_grid: float = 0.02
 
     def weights(self) -> dict:
         """The U_A weights in use: given ones, else the surface side's defaults."""
@@ -101,7 +108,8 @@ class DesignParams:
         return {"L_mm": mm(L), "mu1_mm": mm(sp.mu1), "mu2_mm": mm(self.mu2), "margin_mm": mm(self.margin),
                 "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), **self.weights(),
                 "kappa_min_per_m": self.kappa_min,
-                "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points)}
+                "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points),
+                "tie_grid_mm": mm(self.tie_grid)}
 
 
 @dataclass(frozen=True)
@@ -186,6 +194,8 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     params = dataclasses.replace(params, L=L, mu1=L if params.mu1 is None else params.mu1)
     sp = params.stripe_params(L)
     check_stripe_params(sp, mattress.width, mattress.height)
+    if not (params.tie_grid >= 0 and np.isfinite(params.tie_grid)):
+        raise InputError(f"the tie grid pitch must be >= 0 mm (0: free ends), got {params.tie_grid * M_TO_MM!r}")
     reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))
     approx = approximate_surface(target, mattress, spacing=params.spacing, **params.weights(), kappa_max=reach,
                                  progress=progress)
@@ -197,8 +207,9 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     stripes = trace_stripes(mfield, sp)
     timings["stripes"] = time.perf_counter() - t
     t = time.perf_counter()
-    pattern = string_pattern(mfield, stripes.dashes, calibration, L=L, n_points=params.n_kappa_points,
-                             kappa_min=params.kappa_min, notes=stripes.notes)
+    dashes, snap = snap_dashes(stripes.dashes, grid=params.tie_grid, width=mattress.width, height=mattress.height)
+    pattern = string_pattern(mfield, dashes, calibration, L=L, n_points=params.n_kappa_points,
+                             kappa_min=params.kappa_min, notes=stripes.notes, tie_grid=snap)
     timings["lengths"] = time.perf_counter() - t
     return DesignResult(name=target.name, approx=approx, pattern=pattern, calibration=calibration, params=params,
                         seed=int(seed), mfield=mfield, stripes=stripes, timings=timings)

@@ -76,8 +76,8 @@ def length_quantiles(kappa_abs, L: float, delta, d):
     ----------
     kappa_abs : ndarray of shape (n,)
         |κ| of each string (1/m).
-    L : float
-        Geodesic spacing of the string's ends (m).
+    L : float or ndarray of shape (n,)
+        Geodesic spacing of the string's ends (m), one for all or one per string.
     delta, d : ndarray of shape (s,)
         Posterior samples of Δ and d (m).
 
@@ -89,6 +89,7 @@ def length_quantiles(kappa_abs, L: float, delta, d):
         Fraction of samples whose kappa_max is below |κ| (clipped to l = 0).
     """
     kappa_abs = np.asarray(kappa_abs, dtype=float)[:, None]
+    L = np.asarray(L, float).reshape(-1, 1) if np.ndim(L) else float(L)
     delta, d = np.asarray(delta, float)[None, :], np.asarray(d, float)[None, :]
     kmax = kappa_max(L, delta, d)                       # (1, s): per-sample reach
     over = kappa_abs > kmax
@@ -99,7 +100,7 @@ def length_quantiles(kappa_abs, L: float, delta, d):
 
 
 def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
-                   kappa_min: float = 0.25, notes=()) -> Pattern:
+                   kappa_min: float = 0.25, notes=(), tie_grid=None) -> Pattern:
     """Turn dashes into tension strings: face, length and tolerance.
 
     Parameters
@@ -117,22 +118,29 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
         Dashes with |κ| below this (1/m) get no string.
     notes : sequence of str
         Carried into the pattern (e.g. the stripe tracer's notes).
+    tie_grid : design.tie_grid.TieGridReport, optional
+        When the dashes' ends were snapped to the mattress's grid: each string's
+        length then comes from Equation 3 at its own dash's L (``dash.length``),
+        not at ``L``; the report is kept in the pattern.
 
     Returns
     -------
     Pattern
     """
     kappa = dash_kappa(mfield, dashes, n_points=n_points)
-    med_flat = float(flat_length(L, np.median(calibration.delta)))
+    snapped = tie_grid is not None and tie_grid.grid > 0
+    spans = np.array([d.length for d in dashes]) if snapped else np.full(len(dashes), float(L))
+    med_flat = flat_length(spans, np.median(calibration.delta))
     need = np.abs(kappa) >= max(kappa_min, 0.0)
     need &= np.abs(kappa) > 0
     strings, n_no = [], {name: 0 for name in FAMILIES}
     if np.any(need):
-        q, unreachable = length_quantiles(np.abs(kappa[need]), L, calibration.delta, calibration.d)
+        q, unreachable = length_quantiles(np.abs(kappa[need]), spans[need] if snapped else L,
+                                          calibration.delta, calibration.d)
     idx_need = np.flatnonzero(need)
     for j, i in enumerate(idx_need):
         dash = dashes[i]
-        if q[0, j] >= med_flat:  # numerically flat: no string
+        if q[0, j] >= med_flat[i]:  # numerically flat: no string
             need[i] = False
             continue
         flags = []
@@ -155,4 +163,4 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
                      f"posterior samples that cannot reach their curvature)")
         log.warning(extra[-1])
     return Pattern(strings=tuple(strings), L=float(L), n_dashes=n_dashes, n_no_string=n_no,
-                   notes=tuple(notes) + tuple(extra))
+                   notes=tuple(notes) + tuple(extra), tie_grid=tie_grid)

@@ -40,12 +40,15 @@ def add_parser(sub, parents):
     p.add_argument("--weight-min", type=float, default=0.0,
                    help="lines stop where the principal-direction weight is below this (umbilics, where "
                         "any direction bends alike; default 0: trace through the smoothed line field)")
+    p.add_argument("--tie-grid-mm", type=float, default=20.0,
+                   help="pitch of the grid mesh on the mattress's faces: string ends are tied to its nodes "
+                        "(default 20, paper §2.1; 0: free positions)")
     p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (default: the relaxation's)")
     p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (default: the relaxation's)")
     p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
-                        "cutting_list.csv, preview.png")
+                        "cutting_list.csv, preview.png, design.3dm (Rhino)")
     p.set_defaults(func=run)
 
 
@@ -92,14 +95,16 @@ def _params(args):
     check_range("--thickness-mm", args.thickness_mm)
     check_range("--L-mm", args.L_mm)
     if not (args.margin_mm >= 0 and args.kappa_min_per_m >= 0 and args.weight_min >= 0
+            and args.tie_grid_mm >= 0 and args.tie_grid_mm < float("inf")
             and all(k is None or k >= 0 for k in (args.k_a2, args.k_a3))):
-        raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --k-a2 and --k-a3 must be >= 0")
+        raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --tie-grid-mm, --k-a2 and --k-a3 "
+                         "must be >= 0")
     mm = 1e-3
     return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=None if args.mu1_mm is None else args.mu1_mm * mm,
                         mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.spacing_mm * mm,
                         step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
-                        weight_min=args.weight_min)
+                        weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm)
 
 
 def summary_text(doc: dict, out) -> str:
@@ -117,6 +122,11 @@ def summary_text(doc: dict, out) -> str:
     lines.append(f"  sigma min/avg/max {sg['min']:.4f} / {sg['avg']:.4f} / {sg['max']:.4f}; "
                  f"|k1| avg/max {k1['avg']:.2f} / {k1['max']:.2f} 1/m; |k2| avg/max {k2['avg']:.2f} / "
                  f"{k2['max']:.2f} 1/m")
+    tg = s.get("tie_grid")
+    if tg and tg["grid_mm"] > 0:
+        lines.append(f"  ends tied to the {tg['grid_mm']:g} mm grid: moved {tg['end_shift_mm']['mean']:.1f} mm on "
+                     f"average (max {tg['end_shift_mm']['max']:.1f}), L changed by up to "
+                     f"{tg['dL_mm']['max_abs']:.1f} mm")
     lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
     lines.append("  constructible: yes" if r["constructible"] else
                  "  constructible: NO: " + "; ".join(r["reasons"]))
@@ -124,7 +134,7 @@ def summary_text(doc: dict, out) -> str:
     if flagged:
         lines.append(f"  {flagged} strings beyond reach of the calibration (flagged in design.json)")
     lines.append(f"  wrote design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, cutting_list.csv, "
-                 f"preview.png to {out}")
+                 f"preview.png, design.3dm to {out}")
     return "\n".join(lines)
 
 

@@ -13,7 +13,7 @@ def add_parser(sub, parents):
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
     p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: inflate.json, inflated.ply, deviation.png")
+                   help="output folder: inflate.json, inflated.ply, inflated.3dm (Rhino), deviation.png")
     p.add_argument("--resolution-mm", type=float, default=20.0,
                    help="edge length of the double-layer mesh (default 20, near the loop-pin spacing)")
     p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")

@@ -13,5 +13,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "svg": ["write_svg"],
     "dxf": ["write_dxf"],
     "cutting_list": ["write_cutting_list"],
+    "rhino": ["write_3dm", "rhino_model", "lift_to_surface"],
+    "retie_files": ["write_retie", "retie_document", "retie_figure"],
     "preview": ["write_preview", "preview_figure"],
 })

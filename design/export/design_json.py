@@ -8,9 +8,13 @@ Layout (all lengths in mm on Ω = [0, W] × [0, H], top face seen from above)::
     parameters    {L_mm, mu1_mm, mu2_mm, margin_mm, ...}        (what was used)
     report        {sigma {min, avg, max}, kappa1_per_m {avg, max}, kappa2_per_m {avg, max},
                    constructible, reasons}
-    summary       {strings {top {k1, k2}, bottom {k1, k2}}, dashes {k1, k2}, no_string {k1, k2}, notes}
+    summary       {strings {top {k1, k2}, bottom {k1, k2}}, dashes {k1, k2}, no_string {k1, k2}, notes,
+                   tie_grid {grid_mm, end_shift_mm {mean, max}, dL_mm {mean, max_abs}}}
     dashes        [{id, family, side, polyline_mm, a_mm, b_mm, L_mm, chord_mm, kappa_per_m,
-                    l_mm {median, lo95, hi95}, flags}]
+                    l_mm {median, lo95, hi95}, flags, a_node, b_node}]
+
+``a_node``/``b_node`` are the grid nodes the ends are tied to, ``{row, col, u_mm, v_mm}``
+(node (row, col) at u = col · g, v = row · g), or null for free ends (``--tie-grid-mm 0``).
 
 Only dashes that get a string are listed; the others are counted in ``summary.no_string``.
 Numbers are rounded (0.01 mm, 1e-4 1/m) so that the same design gives the same bytes.
@@ -35,6 +39,12 @@ def _mm(x) -> float:
     return round(float(x) * M_TO_MM, 2)
 
 
+def _node(node, point) -> dict | None:
+    if node is None:
+        return None
+    return {"row": int(node[0]), "col": int(node[1]), "u_mm": _mm(point[0]), "v_mm": _mm(point[1])}
+
+
 def _dash_entry(s) -> dict:
     d = s.dash
     return {"id": d.id, "family": d.family, "side": s.side,
@@ -43,7 +53,7 @@ def _dash_entry(s) -> dict:
             "L_mm": _mm(d.length), "chord_mm": _mm(d.chord),
             "kappa_per_m": round(float(s.kappa), 4),
             "l_mm": {"median": _mm(s.l_median), "lo95": _mm(s.l_lo95), "hi95": _mm(s.l_hi95)},
-            "flags": list(s.flags)}
+            "flags": list(s.flags), "a_node": _node(d.a_node, d.a), "b_node": _node(d.b_node, d.b)}
 
 
 def design_document(pattern, *, mattress, calibration, report: dict, parameters: dict, seed: int,
@@ -83,7 +93,8 @@ def design_document(pattern, *, mattress, calibration, report: dict, parameters:
         "parameters": parameters,
         "report": report,
         "summary": {"strings": strings, "dashes": dict(pattern.n_dashes),
-                    "no_string": dict(pattern.n_no_string), "notes": list(pattern.notes)},
+                    "no_string": dict(pattern.n_no_string), "notes": list(pattern.notes),
+                    "tie_grid": pattern.tie_grid.summary_mm() if pattern.tie_grid is not None else None},
         "dashes": [_dash_entry(s) for s in pattern.strings],
     }
 

@@ -5,11 +5,15 @@ face, to its right, is drawn **as seen from below**, i.e. mirrored left-right
 (u → W − u), the way it lies in front of you once the mattress is turned over
 about its v axis; the caption says so, and each face marks its Ω origin corner.
 Each string is a line from end a to end b along its dash, with dots at the
-tie points and its id beside it; k1 and k2 have different colours.
+tie points and its id and length to cut (``k1-003-02  l=212.4``) beside it,
+along the string and offset from it; k1 and k2 have different colours. A
+100 mm scale bar in the caption band checks the print is 1:1. Every label
+stays on the page: the origin labels run inward from the faces' outer corners.
 """
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 from airmat.atomic import atomic_write_bytes
@@ -17,7 +21,8 @@ from airmat.atomic import atomic_write_bytes
 __all__ = ["write_svg", "svg_transform", "LAYOUT"]
 
 #: page layout (mm): outer padding, gap between the faces, title and caption bands, text sizes
-LAYOUT = {"pad": 20.0, "gap": 80.0, "title": 40.0, "caption": 30.0, "font": 8.0, "title_font": 14.0}
+LAYOUT = {"pad": 20.0, "gap": 80.0, "title": 40.0, "caption": 56.0, "font": 8.0, "title_font": 14.0}
+SCALE_BAR_MM = 100.0
 COLOURS = {"k1": "#c0392b", "k2": "#1f5fa8"}
 _NS = "http://www.w3.org/2000/svg"
 
@@ -62,7 +67,8 @@ def _face(svg, doc, face):
                               "fill": "none", "stroke": "black", "stroke-width": "0.5"})
     ox, oy = svg_transform(face, 0.0, 0.0, W, H)
     ET.SubElement(g, "circle", {"cx": _fmt(ox), "cy": _fmt(oy), "r": "3", "fill": "black"})
-    _text(g, ox, oy + 12, "origin u=0, v=0", LAYOUT["font"], anchor="middle")
+    # the origin is the top face's left corner and the bottom face's right corner: label inward
+    _text(g, ox, oy + 12, "origin u=0, v=0", LAYOUT["font"], anchor="start" if face == "top" else "end")
     label = "TOP face, seen from above" if face == "top" else "BOTTOM face, seen from below (mirrored)"
     _text(g, min(x0, x1), y0 - 4, label, LAYOUT["font"] * 1.25, weight="bold")
     for dash in doc["dashes"]:
@@ -71,14 +77,43 @@ def _face(svg, doc, face):
         pts = [svg_transform(face, u, v, W, H) for u, v in dash["polyline_mm"]]
         colour = COLOURS.get(dash["family"], "black")
         dg = ET.SubElement(g, "g", {"id": dash["id"], "class": f"{face} {dash['family']}"})
+        nodes = [dash.get(f"{end}_node") for end in ("a", "b")]
+        ties = (" tied at " + " - ".join(f"R{n['row']}C{n['col']}" for n in nodes)) if all(nodes) else ""
         ET.SubElement(dg, "title").text = (f"{dash['id']}: l = {dash['l_mm']['median']:.1f} mm "
-                                           f"[{dash['l_mm']['lo95']:.1f}, {dash['l_mm']['hi95']:.1f}]")
+                                           f"[{dash['l_mm']['lo95']:.1f}, {dash['l_mm']['hi95']:.1f}]{ties}")
         ET.SubElement(dg, "polyline", {"points": " ".join(f"{_fmt(x)},{_fmt(y)}" for x, y in pts),
                                        "fill": "none", "stroke": colour, "stroke-width": "2"})
         for x, y in (pts[0], pts[-1]):
             ET.SubElement(dg, "circle", {"cx": _fmt(x), "cy": _fmt(y), "r": "2.5", "fill": colour})
-        mx, my = pts[len(pts) // 2]
-        _text(dg, mx, my - 3, dash["id"], LAYOUT["font"], anchor="middle")
+        x, y, angle = _label_place(pts)
+        el = _text(dg, x, y, f"{dash['id']}  l={dash['l_mm']['median']:.1f}", LAYOUT["font"], anchor="middle")
+        el.set("transform", f"rotate({angle:.2f} {_fmt(x)} {_fmt(y)})")
+
+
+def _label_place(pts):
+    """Label anchor beside a string's middle (offset by 0.6 font sizes) and its angle (deg), upright."""
+    (x0, y0), (x1, y1) = pts[0], pts[-1]
+    mx, my = pts[len(pts) // 2]
+    angle = math.degrees(math.atan2(y1 - y0, x1 - x0))
+    if angle > 90.0:
+        angle -= 180.0
+    elif angle < -90.0:
+        angle += 180.0
+    # the normal pointing up on the page (y down): the text's baseline sits off the line
+    a = math.radians(angle)
+    off = 0.6 * LAYOUT["font"]
+    return mx + off * math.sin(a), my - off * math.cos(a), angle
+
+
+def _scale_bar(svg, x, y):
+    g = ET.SubElement(svg, "g", {"id": "scale-bar"})
+    ET.SubElement(g, "line", {"x1": _fmt(x), "y1": _fmt(y), "x2": _fmt(x + SCALE_BAR_MM), "y2": _fmt(y),
+                              "stroke": "black", "stroke-width": "1"})
+    for k in range(11):
+        h = 4.0 if k % 5 == 0 else 2.0
+        ET.SubElement(g, "line", {"x1": _fmt(x + 10 * k), "y1": _fmt(y - h), "x2": _fmt(x + 10 * k), "y2": _fmt(y),
+                                  "stroke": "black", "stroke-width": "0.5"})
+    _text(g, x + SCALE_BAR_MM + 4, y, f"{SCALE_BAR_MM:.0f} mm (check the print is 1:1)", LAYOUT["font"])
 
 
 def write_svg(path, doc: dict) -> None:
@@ -107,6 +142,7 @@ def write_svg(path, doc: dict) -> None:
         _face(svg, doc, face)
     cap = ("Bottom face drawn as seen from below: mirrored left-right (u -> W - u), as it lies after turning the "
            "mattress over about its v axis. Dots are tie points; lengths in cutting_list.csv.")
-    _text(svg, L["pad"], L["pad"] + L["title"] + H + 18, cap, L["font"])
+    _text(svg, L["pad"], L["pad"] + L["title"] + H + 28, cap, L["font"])
+    _scale_bar(svg, L["pad"], L["pad"] + L["title"] + H + 40)
     ET.indent(svg)
     atomic_write_bytes(path, ET.tostring(svg, encoding="utf-8", xml_declaration=True) + b"\n")

@@ -52,8 +52,21 @@ def test_design_of_a_target_file_writes_everything_and_is_reproducible(cylinder_
     assert {d["side"] for d in doc["dashes"]} == {"bottom"}
     assert f"bottom face: {len(doc['dashes']):3d} k1 strings" in out
     assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(b)]) == 0
-    for name in sorted(FILES):
+    for name in sorted(FILES - {"design.3dm"}):
         assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    # OpenNURBS stamps the write time into the .3dm header: the same model, read back
+    assert _3dm_content(a / "design.3dm") == _3dm_content(b / "design.3dm")
+
+
+def _3dm_content(path):
+    import rhino3dm
+
+    model = rhino3dm.File3dm.Read(str(path))
+    layers = [(model.Layers.FindIndex(i).FullPath, str(model.Layers.FindIndex(i).Id)) for i in range(len(model.Layers))]
+    objects = [(str(o.Attributes.Id), o.Attributes.Name, o.Attributes.LayerIndex,
+                tuple(sorted(o.Attributes.GetUserStrings())), o.Geometry.Encode()["data"]) for o in model.Objects]
+    assert len(objects) > 10
+    return layers, objects
 
 
 def test_calibration_folder_is_used_and_labelled(cylinder_obj, tmp_path, capsys):
@@ -73,8 +86,9 @@ def test_calibration_folder_is_used_and_labelled(cylinder_obj, tmp_path, capsys)
 
 def test_parameters_reach_the_files(cylinder_obj, tmp_path):
     out = tmp_path / "out"
+    # free ends (--tie-grid-mm 0): every dash keeps L exactly
     assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--L-mm", "250", "--mu1-mm", "300",
-                 "--mu2-mm", "150", "--margin-mm", "40", "--out", str(out), "-q"]) == 0
+                 "--mu2-mm", "150", "--margin-mm", "40", "--tie-grid-mm", "0", "--out", str(out), "-q"]) == 0
     doc = json.loads((out / "design.json").read_text())
     p = doc["parameters"]
     assert (p["L_mm"], p["mu1_mm"], p["mu2_mm"], p["margin_mm"]) == (250.0, 300.0, 150.0, 40.0)
@@ -82,6 +96,26 @@ def test_parameters_reach_the_files(cylinder_obj, tmp_path):
         assert d["L_mm"] == pytest.approx(250.0, abs=0.01)
         poly = np.array(d["polyline_mm"])
         assert poly.min() >= 40.0 - 0.01 and np.all(poly <= [830 - 40 + 0.01, 740 - 40 + 0.01])
+
+
+def test_ends_are_tied_to_the_grid_in_every_file(cylinder_obj, tmp_path, capsys):
+    import csv
+
+    out = tmp_path / "out"
+    assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(out)]) == 0
+    assert "ends tied to the 20 mm grid" in capsys.readouterr().out
+    doc = json.loads((out / "design.json").read_text())
+    assert doc["parameters"]["tie_grid_mm"] == 20.0
+    tg = doc["summary"]["tie_grid"]
+    assert tg["grid_mm"] == 20.0 and 0 < tg["end_shift_mm"]["max"] <= 14.15 and tg["dL_mm"]["max_abs"] <= 28.3
+    with open(out / "cutting_list.csv", newline="") as fh:
+        rows = {r["id"]: r for r in csv.DictReader(fh)}
+    for d in doc["dashes"]:
+        for end in ("a", "b"):
+            node = d[f"{end}_node"]
+            assert d[f"{end}_mm"] == pytest.approx([20.0 * node["col"], 20.0 * node["row"]], abs=0.01)
+            assert [node["u_mm"], node["v_mm"]] == d[f"{end}_mm"]
+            assert rows[d["id"]][f"{end}_node"] == f"R{node['row']}C{node['col']}"
 
 
 def _mesh_file(tmp_path, name, text):
@@ -119,6 +153,7 @@ def test_units_slip_is_refused(tmp_path, capsys):
     (["--preset", "vault1", "--mu1-mm", "200"], "mu1"),
     (["--preset", "vault1", "--L-mm", "900", "--mu1-mm", "1000"], "longer than the mattress"),
     (["--preset", "vault1", "--mu2-mm", "0"], "mu2"),
+    (["--preset", "vault1", "--tie-grid-mm", "-20"], "--tie-grid-mm"),
     (["--preset", "vault1", "--calibration", "CAL_MISSING_FIELD"], "parameters.d_mm"),
     (["--preset", "vault1", "--calibration", "NO_SUCH_DIR"], "not found"),
     (["TARGET_FILE", "--preset", "vault1"], "either"),

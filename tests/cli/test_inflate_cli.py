@@ -54,6 +54,29 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     assert np.all(kap < 0) and np.all(lo < kap)
     assert (out / "inflated.ply").stat().st_size > 0 and (out / "deviation.png").stat().st_size > 0
     assert "deviation from S-hat" in capsys.readouterr().out
+    _check_inflated_3dm(out / "inflated.3dm", design, doc)
+
+
+def _check_inflated_3dm(path, design, doc):
+    """inflated.3dm: the design's layers plus the aligned shapes, in Ŝ's frame (within the deviation)."""
+    import rhino3dm
+
+    from design.design_io import read_design
+
+    model = rhino3dm.File3dm.Read(str(path))
+    assert model.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
+    layers = {model.Layers.FindIndex(i).Index: model.Layers.FindIndex(i) for i in range(len(model.Layers))}
+    by_path = {layer.FullPath: layer for layer in layers.values()}
+    assert by_path["inflated::median"].Visible and not by_path["inflated::lo95"].Visible
+    meshes = {layers[o.Attributes.LayerIndex].FullPath: o.Geometry for o in model.Objects
+              if layers[o.Attributes.LayerIndex].FullPath in ("S_hat", "inflated::median")}
+    s_hat = read_design(design).approx.xyz * 1000
+    med = np.array([[p.X, p.Y, p.Z] for p in meshes["inflated::median"].Vertices])
+    assert med.shape == s_hat.shape
+    # in Ŝ's frame: each vertex within the largest deviation of the check (not the simulation's coordinates)
+    assert np.linalg.norm(med - s_hat, axis=1).max() <= doc["deviation"]["max_mm"] + 0.01
+    curves = [o for o in model.Objects if o.Attributes.Name in {d["id"] for d in doc["dashes"]}]
+    assert len(curves) == 2 * len(doc["dashes"])
 
 
 @pytest.mark.parametrize("case,words", [

@@ -13,7 +13,8 @@ from design.calibration_source import default_calibration
 from design.export import (design_document, read_design_json, write_cutting_list, write_design_json,
                            write_dxf, write_preview, write_svg)
 from design.export.preview import face_sigma, preview_figure
-from design.export.svg import svg_transform
+from design.export.dxf import GAP_MM
+from design.export.svg import LAYOUT, svg_transform
 from design.mattress import Mattress
 from design.string_lengths import string_pattern
 from design.stripes import StripeParams, trace_stripes
@@ -98,7 +99,24 @@ def test_svg_is_1_to_1_mm_and_agrees_with_the_json(written):
         poly = np.array(d["polyline_mm"])
         x, y = svg_transform(d["side"], poly[:, 0], poly[:, 1], W, H)
         np.testing.assert_allclose(pts, np.column_stack([x, y]), atol=0.006)
-        assert d["id"] in [t.text for t in g.iter(f"{SVG}text")]
+        label = [t for t in g.iter(f"{SVG}text")]
+        assert [t.text for t in label] == [f"{d['id']}  l={d['l_mm']['median']:.1f}"]
+        # beside the string, not on it: the anchor is off every segment by about half the font size
+        p = np.array([float(label[0].get("x")), float(label[0].get("y"))])
+        a, b = pts[:-1], pts[1:]
+        t = np.clip(np.einsum("ij,ij->i", p - a, b - a) / np.maximum(np.einsum("ij,ij->i", b - a, b - a), 1e-12), 0, 1)
+        dist = np.linalg.norm(a + t[:, None] * (b - a) - p, axis=1).min()
+        assert 0.5 * LAYOUT["font"] <= dist <= 0.7 * LAYOUT["font"]
+    # every text fits on the page (width estimated at 0.6 font sizes per character)
+    for t in root.iter(f"{SVG}text"):
+        x, size, n = float(t.get("x")), float(t.get("font-size")), len(t.text or "")
+        if t.get("transform"):
+            continue        # the string labels, checked above to sit beside their strings inside the faces
+        start = {"start": x, "middle": x - 0.3 * size * n, "end": x - 0.6 * size * n}[t.get("text-anchor")]
+        assert 0 <= start and start + 0.6 * size * n <= w_mm, t.text
+        assert size <= float(t.get("y")) <= h_mm, t.text
+    bar = groups["scale-bar"].find(f"{SVG}line")
+    assert float(bar.get("x2")) - float(bar.get("x1")) == pytest.approx(100.0)
     # the bottom face is mirrored: u = 0 lies at its right edge
     x0, _ = svg_transform("bottom", 0.0, 0.0, W, H)
     xW, _ = svg_transform("bottom", W, 0.0, W, H)
@@ -110,18 +128,63 @@ def test_dxf_reopens_in_mm_with_a_layer_per_face_and_family(written):
     dxf = ezdxf.readfile(folder / "pattern.dxf")
     assert dxf.units == ezdxf.units.MM and dxf.header["$INSUNITS"] == ezdxf.units.MM
     layers = {layer.dxf.name for layer in dxf.layers}
-    assert {"TOP_K1", "TOP_K2", "BOTTOM_K1", "BOTTOM_K2", "OUTLINE"} <= layers
+    assert {"TOP_K1", "TOP_K2", "BOTTOM_K1", "BOTTOM_K2", "OUTLINE", "TIES"} <= layers
     msp = dxf.modelspace()
-    texts = {t.dxf.text: t.dxf.layer for t in msp.query("TEXT")}
+    texts = {t.dxf.text.split("  ")[0]: t for t in msp.query("TEXT")}
     polys = [p for p in msp.query("LWPOLYLINE") if p.dxf.layer != "OUTLINE"]
     assert len(polys) == len(doc["dashes"])
-    for p, d in zip(polys, doc["dashes"]):
+    assert {d["side"] for d in doc["dashes"]} == {"top", "bottom"}
+    ties = np.array([(c.dxf.center.x, c.dxf.center.y) for c in msp.query("CIRCLE") if c.dxf.layer == "TIES"])
+    assert len(ties) == 2 * len(doc["dashes"])
+    by_face = [d for face in ("top", "bottom") for d in doc["dashes"] if d["side"] == face]
+    for p, d in zip(polys, by_face):
         layer = f"{d['side'].upper()}_{d['family'].upper()}"
-        assert p.dxf.layer == layer and texts[d["id"]] == layer
-        np.testing.assert_allclose(np.array(p.get_points("xy")), d["polyline_mm"], atol=1e-9)
-    outline = [p for p in msp.query("LWPOLYLINE") if p.dxf.layer == "OUTLINE"][0]
-    np.testing.assert_allclose(np.array(outline.get_points("xy")),
-                               [[0, 0], [830, 0], [830, 740], [0, 740]])
+        assert p.dxf.layer == layer and texts[d["id"]].dxf.layer == layer
+        # the string's length to cut is written beside it
+        assert texts[d["id"]].dxf.text == f"{d['id']}  l={d['l_mm']['median']:.1f} mm"
+        u, v = np.array(d["polyline_mm"]).T
+        # top face as seen from above (Ω itself), bottom face mirrored to the right of it
+        x = u if d["side"] == "top" else 2 * 830 + GAP_MM - u
+        np.testing.assert_allclose(np.array(p.get_points("xy")), np.column_stack([x, v]), atol=1e-9)
+        for end in (np.array([x[0], v[0]]), np.array([x[-1], v[-1]])):
+            assert np.min(np.linalg.norm(ties - end, axis=1)) < 1e-9
+    outlines = [np.array(p.get_points("xy")) for p in msp.query("LWPOLYLINE") if p.dxf.layer == "OUTLINE"]
+    np.testing.assert_allclose(outlines[0], [[0, 0], [830, 0], [830, 740], [0, 740]])
+    np.testing.assert_allclose(outlines[1], [[910, 0], [1740, 0], [1740, 740], [910, 740]])
+    labels = [t.dxf.text for t in msp.query("TEXT") if t.dxf.layer == "OUTLINE"]
+    assert "BOTTOM face, seen from below (mirrored)" in labels and "TOP face, seen from above" in labels
+
+
+def test_dxf_header_extents_and_audit(written):
+    folder, _, _ = written
+    dxf = ezdxf.readfile(folder / "pattern.dxf")
+    lo, hi = np.array(dxf.header["$EXTMIN"]), np.array(dxf.header["$EXTMAX"])
+    # the two faces side by side, their labels above and the origin labels below
+    assert lo[0] <= 0 and lo[1] < 0 and 1740 <= hi[0] < 1800 and 740 < hi[1] < 820
+    assert np.all(np.abs(np.concatenate([lo, hi])) < 1e4)
+    auditor = dxf.audit()
+    assert not auditor.has_errors, [e.message for e in auditor.errors]
+
+
+def test_dxf_is_byte_stable_across_hash_seeds(tmp_path):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = ("import sys; sys.path[:0] = [sys.argv[2], sys.argv[3]]\n"
+              "from test_export import _document\n"
+              "from design.export.dxf import write_dxf\n"
+              "write_dxf(sys.argv[1], _document()[0])\n")
+    data = []
+    for seed in ("1", "10"):     # seeds 1 and 10 ordered ezdxf's CLASSES differently before the fix
+        out = tmp_path / f"h{seed}.dxf"
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        subprocess.run([sys.executable, "-c", script, str(out), str(root), str(root / "tests" / "design")],
+                       check=True, env=env, cwd=tmp_path)
+        data.append(out.read_bytes())
+    assert data[0] == data[1]
 
 
 def test_cutting_list_is_sorted_for_the_workshop_and_agrees(written):
@@ -180,3 +243,25 @@ def test_preview_figure_is_the_figure_write_preview_saves(written, tmp_path):
     fig.savefig(buf, format="png", dpi=40)
     assert buf.getvalue() == (folder / "preview.png").read_bytes()
 
+
+
+def test_preview_names_every_string_and_its_sigma_scale_holds_the_report(written):
+    from matplotlib.collections import LineCollection
+
+    from design.export.preview import id_font_size, sigma_limits
+
+    _, doc, _ = written
+    rep = {**doc["report"], "sigma": {"min": 0.955, "avg": 1.0, "max": 1.01}}
+    fig = preview_figure({**doc, "report": rep}, *_cylinder_surface())
+    pattern = fig.axes[0]
+    ids = [t.get_text() for t in pattern.texts]
+    assert sorted(ids) == sorted(d["id"] for d in doc["dashes"])
+    # strings drawn thick and dark-outlined, the bottom face dashed (not dotted)
+    lcs = [c for c in pattern.collections if isinstance(c, LineCollection)]
+    assert all(lc.get_linewidths()[0] >= 2.5 and lc.get_path_effects() for lc in lcs)
+    surface_bar = fig.axes[3]
+    lo, hi = surface_bar.get_ylim()
+    assert lo <= 0.955 and hi >= 1.045 - 1e-9
+    assert sigma_limits(np.array([1.0]), {"sigma": {"min": 0.955, "max": 1.0}}) == (0.955, 1.045)
+    # legible at the large presets' 150 strings, and not smaller than 4.5 pt
+    assert id_font_size(20) == 7.0 and id_font_size(150) == 4.5 and id_font_size(500) == 4.5

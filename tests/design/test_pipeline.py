@@ -58,8 +58,10 @@ def test_cylinder_strings_invert_the_curvature_1_over_R(cyl):
     k_true = 1.0 / surf.params["radius"]
     for s in r.pattern.strings:
         assert s.kappa == pytest.approx(k_true, rel=KAPPA_RTOL)
-        assert kappa1(s.l_median, 0.3, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
-        assert s.l_median == pytest.approx(float(string_length(k_true, 0.3, 0.018, 0.070)), abs=0.005)
+        # the ends are tied to the 20 mm grid: Equation 3 at the dash's own (snapped) L
+        L = s.dash.length
+        assert kappa1(s.l_median, L, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
+        assert s.l_median == pytest.approx(float(string_length(k_true, L, 0.018, 0.070)), abs=0.005)
         # the dash runs around the axis (x): its chord on Ŝ is perpendicular to it
         p = _dash_points_on_S(r, s)
         chord = p[-1] - p[0]
@@ -74,7 +76,7 @@ def test_cone_strings_follow_the_local_curvature(con):
     for s in r.pattern.strings:
         k_true = float(np.mean(surf.curvature(_dash_points_on_S(r, s))[0][:, 0]))
         assert s.kappa == pytest.approx(k_true, rel=KAPPA_RTOL)
-        assert kappa1(s.l_median, 0.3, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
+        assert kappa1(s.l_median, s.dash.length, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
         kappas.append(k_true)
     assert np.ptp(kappas) > 0.2 * np.mean(kappas)  # the test sees a real variation along the cone
 
@@ -93,3 +95,34 @@ def test_write_design_writes_every_file(cyl, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(OUTPUT_FILES)
     assert doc["report"]["constructible"] is True and doc["summary"]["strings"]["top"] == {"k1": 0, "k2": 0}
     assert doc["parameters"]["L_mm"] == 300.0 and doc["calibration"]["source"] == "test"
+
+
+@pytest.mark.parametrize("fixture", ["cyl", "con"])
+def test_string_ends_sit_on_the_20mm_grid_and_L_is_their_span(fixture, request):
+    _, r = request.getfixturevalue(fixture)
+    assert r.params.tie_grid == 0.02 and r.pattern.tie_grid.grid == 0.02
+    for s in r.pattern.strings:
+        d = s.dash
+        for end, node in ((d.a, d.a_node), (d.b, d.b_node)):
+            np.testing.assert_allclose(end, [node[1] * 0.02, node[0] * 0.02], atol=1e-12)
+        arc = np.linalg.norm(np.diff(d.polyline, axis=0), axis=1).sum()
+        assert d.length == pytest.approx(arc, rel=1e-12)
+        # snapping moves an end by at most half a cell diagonal, so L by at most one diagonal
+        assert abs(d.length - 0.3) <= 0.02 * np.sqrt(2) + 0.005
+    shift = r.pattern.tie_grid.end_shift
+    assert shift.max() <= 0.01 * np.sqrt(2) + 1e-12 and shift.mean() > 0
+
+
+def test_free_ends_keep_L_and_equation_3_at_L():
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
+    r = design(surf, MATTRESS, calibration=POINT, params=DesignParams(spacing=0.04, tie_grid=0.0), progress=False)
+    assert r.pattern.strings
+    for s in r.pattern.strings:
+        assert s.dash.a_node is None and s.dash.b_node is None
+        assert kappa1(s.l_median, 0.3, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
+
+
+def test_negative_tie_grid_is_refused():
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
+    with pytest.raises(InputError, match="tie grid"):
+        design(surf, MATTRESS, params=DesignParams(tie_grid=-0.02), progress=False)

@@ -1,0 +1,100 @@
+"""design.3dm / inflated.3dm: read back with rhino3dm (units, layers, objects, user text)."""
+
+import numpy as np
+import pytest
+
+from design.export.rhino import FACE_FAMILIES, STRING_KEYS, lift_to_surface, write_3dm
+from test_export import _cylinder_surface, _document
+
+rhino3dm = pytest.importorskip("rhino3dm")
+
+
+def _layers(model):
+    return {model.Layers.FindIndex(i).FullPath: model.Layers.FindIndex(i) for i in range(len(model.Layers))}
+
+
+def _by_layer(model):
+    layers = {model.Layers.FindIndex(i).Index: model.Layers.FindIndex(i).FullPath for i in range(len(model.Layers))}
+    out = {}
+    for obj in model.Objects:
+        out.setdefault(layers[obj.Attributes.LayerIndex], []).append(obj)
+    return out
+
+
+@pytest.fixture(scope="module")
+def design_3dm(tmp_path_factory):
+    doc, _ = _document()
+    xyz, uv, faces = _cylinder_surface()
+    path = tmp_path_factory.mktemp("rhino") / "design.3dm"
+    write_3dm(path, doc, xyz, uv, faces)
+    return doc, (xyz, uv, faces), rhino3dm.File3dm.Read(str(path))
+
+
+def test_units_layers_and_counts(design_3dm):
+    doc, (xyz, uv, faces), model = design_3dm
+    assert model.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
+    layers = _layers(model)
+    for ff in FACE_FAMILIES:
+        assert f"omega::{ff}" in layers and f"S_hat::{ff}" in layers
+    objs = _by_layer(model)
+    n = len(doc["dashes"])
+    assert n > 4
+    for parent in ("omega", "S_hat"):
+        assert sum(len(objs.get(f"{parent}::{ff}", [])) for ff in FACE_FAMILIES) == n
+        assert len(objs[f"{parent}::ties"]) == 2 * n
+    mesh = objs["S_hat"][0].Geometry
+    assert len(mesh.Vertices) == len(xyz) and mesh.Faces.Count == len(faces)
+    np.testing.assert_allclose(mesh.Vertices[7].X, xyz[7, 0] * 1000, atol=1e-3)
+    assert "inflated" not in layers
+
+
+def test_user_text_matches_design_json(design_3dm):
+    doc, _, model = design_3dm
+    objs = _by_layer(model)
+    dash = doc["dashes"][0]
+    key = f"{dash['side']}/{dash['family']}"
+    curve = next(o for o in objs[f"omega::{key}"] if o.Attributes.Name == dash["id"])
+    text = dict(curve.Attributes.GetUserStrings())
+    assert set(STRING_KEYS) <= set(text)
+    assert float(text["l_median_mm"]) == pytest.approx(dash["l_mm"]["median"])
+    assert float(text["l_hi95_mm"]) == pytest.approx(dash["l_mm"]["hi95"])
+    assert float(text["kappa_per_m"]) == pytest.approx(dash["kappa_per_m"])
+    assert text["face"] == dash["side"] and text["family"] == dash["family"]
+    start = curve.Geometry.PointAtStart
+    assert (start.X, start.Y, start.Z) == pytest.approx((*dash["polyline_mm"][0], 0.0), abs=1e-6)
+
+
+def test_lifted_strings_lie_on_the_cylinder(design_3dm):
+    doc, _, model = design_3dm
+    radius_mm = 400.0
+    objs = _by_layer(model)
+    for ff in FACE_FAMILIES:
+        for o in objs.get(f"S_hat::{ff}", []):
+            for p in (o.Geometry.PointAtStart, o.Geometry.PointAtEnd):
+                # on the cylinder x² + (z + R)² = R², up to the chord error of 50 mm facets
+                r = np.hypot(p.X, p.Z + radius_mm)
+                assert r == pytest.approx(radius_mm, rel=5e-3)
+
+
+def test_lift_to_surface_is_exact_on_vertices_and_linear_inside():
+    xyz, uv, faces = _cylinder_surface()
+    # points on the edge of Ω are moved inside by 1e-9 of its diagonal (~1 m) first
+    np.testing.assert_allclose(lift_to_surface(uv, xyz, uv, faces), xyz, atol=1e-8)
+    mid = 0.5 * (uv[faces[:, 0]] + uv[faces[:, 1]])
+    np.testing.assert_allclose(lift_to_surface(mid, xyz, uv, faces),
+                               0.5 * (xyz[faces[:, 0]] + xyz[faces[:, 1]]), atol=1e-8)
+
+
+def test_inflated_shapes_on_hidden_layers(tmp_path):
+    doc, _ = _document()
+    xyz, uv, faces = _cylinder_surface()
+    shapes = {"median": xyz + 0.001, "lo95": xyz, "hi95": xyz - 0.001}
+    write_3dm(tmp_path / "inflated.3dm", doc, xyz, uv, faces, shapes=shapes)
+    model = rhino3dm.File3dm.Read(str(tmp_path / "inflated.3dm"))
+    layers = _layers(model)
+    assert layers["inflated::median"].Visible
+    assert not layers["inflated::lo95"].Visible and not layers["inflated::hi95"].Visible
+    objs = _by_layer(model)
+    med = objs["inflated::median"][0].Geometry
+    assert len(med.Vertices) == len(xyz)
+    assert med.Vertices[0].Z == pytest.approx((xyz[0, 2] + 0.001) * 1000, abs=1e-3)
