@@ -111,7 +111,7 @@ def length_keeping_face(lengths, top) -> str:
     Parameters
     ----------
     lengths : ndarray of shape (k,)
-        String lengths (m).
+        The strings' spans on Ω (m).
     top : ndarray of shape (k,) of bool
         True for a string on the top face.
 

@@ -155,7 +155,8 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                               strict=strict, workers=workers)
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
-    named = length_keeping_face(string_sets[0].length, string_sets[0].top) if surface == "auto" else surface
+    span = np.linalg.norm(b - a, axis=1)          # the share of the mattress each string holds
+    named = length_keeping_face(span, string_sets[0].top) if surface == "auto" else surface
     free = np.where(string_sets[0].top, "bottom", "top")
     runs = {}
     for which, inf in zip(which_runs, inflations):

@@ -132,7 +132,7 @@ def summary_text(doc: dict, out) -> str:
              f"{doc['resolution_mm']:g} mm",
              f"  solver: {'converged' if s['converged'] else 'NOT CONVERGED'} in {s['iterations']} Newton "
              f"iterations, residual {s['residual']:.1e}, {s['seconds']:.1f} s",
-             f"  deviation of the {dev.get('surface', 'mid')} face from S-hat: RMS {dev['rms_mm']:.1f} mm "
+             f"  deviation from S-hat ({dev.get('surface', 'mid')} face): RMS {dev['rms_mm']:.1f} mm "
              f"({dev['rms_pct_diag']:.2f}% of the diagonal), max {dev['max_mm']:.1f} mm"]
     ref = {k: v for k, v in dev.get("surfaces", {}).items() if k != dev.get("surface")}
     if ref:

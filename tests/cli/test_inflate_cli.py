@@ -52,7 +52,41 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     lo = np.array([d["kappa_realized_lo95_per_m"] for d in doc["dashes"]])
     assert np.all(kap < 0) and np.all(lo < kap)
     assert (out / "inflated.ply").stat().st_size > 0 and (out / "deviation.png").stat().st_size > 0
-    assert "deviation from S-hat" in capsys.readouterr().out
+    assert "deviation from S-hat (bottom face)" in capsys.readouterr().out
+    # top strings only: the named face is the bottom one (it keeps its length); every face for reference
+    dev = doc["deviation"]
+    assert dev["surface"] == doc["surface"] == "bottom"
+    assert set(dev["surfaces"]) == {"top", "bottom", "mid"}
+    assert dev["surfaces"]["bottom"]["rms_mm"] == dev["rms_mm"]
+    assert all("kappa_realized_free_per_m" in d for d in doc["dashes"])
+
+
+def test_inflated_ply_overlays_the_approx_surface(tmp_path):
+    # inflated.ply is in approx_surface's frame: its bottom face, read back at Ŝ's Ω points,
+    # lies on Ŝ within the reported RMS (the same rigid motion, so the same distances)
+    import trimesh
+
+    from check.compare import surface_at
+    from design.surface_io import read_approx_surface
+    from inflation.mesh import build_mattress_mesh
+
+    design = make_design(tmp_path / "design")
+    out = tmp_path / "out"
+    assert main(["inflate", str(design), "--out", str(out), "--resolution-mm", "50", "--no-envelope"]) == 0
+    doc = json.loads((out / "inflate.json").read_text())
+    ply = trimesh.load(out / "inflated.ply", process=False)
+    mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
+    assert len(ply.vertices) == mesh.n_vertices
+
+    class Read:
+        pass
+    inf = Read()
+    inf.mesh, inf.xyz = mesh, np.asarray(ply.vertices) * 1e-3
+    xyz, uv, _ = read_approx_surface(design / "approx_surface.ply")
+    face, _ = surface_at(inf, uv, "bottom")
+    dist = np.linalg.norm(face - xyz, axis=1) * 1e3
+    assert np.sqrt(np.mean(dist ** 2)) == pytest.approx(doc["deviation"]["rms_mm"], abs=0.01)
+    assert dist.max() == pytest.approx(doc["deviation"]["max_mm"], abs=0.01)
 
 
 @pytest.mark.parametrize("case,words", [
