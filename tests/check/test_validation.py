@@ -47,7 +47,9 @@ def test_validation_figure_is_a_figure_with_the_points_and_equation_3():
     (ax,) = fig.axes
     assert "L = 250 mm" in ax.get_xlabel()
     labels = ax.get_legend_handles_labels()[1]
-    assert any("d = 50 mm" in t for t in labels) and len(labels) == 3
+    assert any("d = 50 mm" in t for t in labels) and len(labels) == 5
     x, y = ax.lines[0].get_data()
     assert y[-1] == pytest.approx(0.0, abs=1e-9)                   # Equation 3: flat at l = L (Δ = 0)
+    xf, yf = ax.lines[1].get_data()                                # the model's free face bends less
+    assert yf[-1] == pytest.approx(0.0, abs=1e-9) and np.all(yf[1:-1] < y[1:-1])
     np.testing.assert_allclose(ax.lines[-1].get_data()[1], [2.7, 5.4])   # the strings' κ, drawn as given
