@@ -103,13 +103,19 @@ def polygon_curvature(inf, layout: SpecimenLayout) -> np.ndarray:
 
 
 def turn_angle(inf, layout: SpecimenLayout, n: int = 86) -> float:
-    """How far the free (top) face turns along the strip's centre line, end to end (degrees)."""
-    u = np.linspace(0.0, layout.width, n)
+    """How far the free (top) face turns along the strip's centre line, end to end (degrees).
+
+    The turn between the first and the last chord of ``n`` points 20 mm inside
+    the ends, scaled to the strip's whole length (the free face keeps its length).
+    """
+    u = np.linspace(0.02, layout.width - 0.02, n)
     xyz, _ = surface_at(inf, np.column_stack([u, np.full(n, 0.5 * layout.height)]), "top")
     seg = np.diff(xyz, axis=0)
-    seg /= np.linalg.norm(seg, axis=1, keepdims=True)
+    length = np.linalg.norm(seg, axis=1)
+    seg /= length[:, None]
     cos = np.clip(np.einsum("kd,kd->k", seg[:-1], seg[1:]), -1.0, 1.0)
-    return float(np.degrees(np.arccos(cos).sum()))
+    between = length.sum() - 0.5 * (length[0] + length[-1])      # from the first chord's middle to the last's
+    return float(np.degrees(np.arccos(cos).sum()) * layout.width / between)
 
 
 @dataclass(frozen=True)
