@@ -5,6 +5,7 @@ Usage::
     .venv/bin/python bench/bench_surfaces.py                       # the five presets at 20 mm
     .venv/bin/python bench/bench_surfaces.py --large-mm 40         # vault2 and roof at 40 mm
     .venv/bin/python bench/bench_surfaces.py --presets vault1 --resolution-mm 40
+    .venv/bin/python bench/bench_surfaces.py --presets vault1 --pattern-mm 300,300,50   # a denser pattern
 
 Each preset is designed in memory with the default pattern and the paper's
 calibration values (seed 0, :mod:`designed_preset`), inflated once at the
@@ -42,6 +43,8 @@ def main(argv=None) -> int:
     ap.add_argument("--presets", default="vault1,saddle,dome,vault2,roof")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
     ap.add_argument("--large-mm", type=float, default=None, help="resolution for vault2 and roof (default: same)")
+    ap.add_argument("--pattern-mm", default=None, metavar="L,MU1,MU2",
+                    help="a denser pattern than the default, e.g. 300,300,50 (DesignParams L, mu1, mu2)")
     args = ap.parse_args(argv)
     print("| preset | res. (mm) | named face | named RMS mm (% diag) | mid RMS mm (% diag) | top RMS mm "
           "| bottom RMS mm | κ real/target, named (median) | mid (median) | |κ|≥1 dashes within 10 % (named) "
@@ -50,7 +53,14 @@ def main(argv=None) -> int:
     for name in args.presets.split(","):
         t0 = time.perf_counter()
         res = args.large_mm if (name in LARGE and args.large_mm) else args.resolution_mm
-        result = designed_preset(name)
+        if args.pattern_mm:
+            from design.pipeline import DesignParams, design
+            from design.presets import preset
+
+            L, mu1, mu2 = (float(x) * MM for x in args.pattern_mm.split(","))
+            result = design(*preset(name), params=DesignParams(L=L, mu1=mu1, mu2=mu2), progress=False)
+        else:
+            result = designed_preset(name)
         c = check(result, resolution=res * MM, envelope=False)
         run = c.runs["median"]
         devs = run.deviations
