@@ -11,7 +11,7 @@ Each preset is designed in memory with the default pattern and the paper's
 calibration values (seed 0, :mod:`designed_preset`), inflated once at the
 median string lengths (``check.inflation_check.check``, ``envelope=False``)
 and compared with Ŝ on every face. The named face is the one the check
-reports as its headline (the face opposite the larger share of strings);
+reports as its headline (the face opposite the larger share of bending, |κ| × span);
 ``mid`` was the headline before. The curvature columns give, over the dashes
 with |κ| ≥ 1 1/m, the median of realized/target on the named face and on the
 mid-surface, and the share within 10 % of the target on the named face.

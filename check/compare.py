@@ -7,8 +7,10 @@ the string shortens to L* = L − 2h; the simulator agrees (σ ≈ 0.999 on the
 face opposite the strings, ≈ 0.89 on the string face). So Ŝ is the
 **length-keeping face**: the face opposite the strings. A design with
 strings on both faces (a saddle) is compared on the face opposite the larger
-share of string length (:func:`length_keeping_face`); the other surfaces
-(top, bottom, mid) are reported for reference.
+share of bending, |κ| times the string's span (:func:`length_keeping_face`;
+a string face shortens by about |κ| d per unit length, so this face is the
+one whose lengths Ŝ misses least); the other surfaces (top, bottom, mid) are
+reported for reference.
 
 The correspondence is known through Ω: the simulated face is evaluated at
 the Ω coordinates of Ŝ's vertices by barycentric interpolation on the
@@ -105,20 +107,21 @@ def surface_at(inflation, uv, which: str = "mid"):
     return (0.5 * (top + bottom) if xyz is None else xyz), up / np.linalg.norm(up, axis=1, keepdims=True)
 
 
-def length_keeping_face(lengths, top) -> str:
-    """The face Ŝ stands for: opposite the larger share of string length.
+def length_keeping_face(weights, top) -> str:
+    """The face Ŝ stands for: opposite the larger share of bending.
 
     Parameters
     ----------
-    lengths : ndarray of shape (k,)
-        The strings' spans on Ω (m).
+    weights : ndarray of shape (k,)
+        Each string's share: |κ| times its span on Ω (the string face shortens by
+        about that times d; any nonnegative weight, e.g. spans alone).
     top : ndarray of shape (k,) of bool
         True for a string on the top face.
 
     Returns
     -------
     str
-        ``"top"`` when the bottom strings' total length is at least the top
+        ``"top"`` when the bottom strings' total weight is at least the top
         strings' (a design without strings included), else ``"bottom"``.
 
     Examples
@@ -128,8 +131,8 @@ def length_keeping_face(lengths, top) -> str:
     >>> length_keeping_face([0.3], [True])
     'bottom'
     """
-    lengths, top = np.asarray(lengths, float), np.asarray(top, bool)
-    return "top" if lengths[~top].sum() >= lengths[top].sum() else "bottom"
+    weights, top = np.asarray(weights, float), np.asarray(top, bool)
+    return "top" if weights[~top].sum() >= weights[top].sum() else "bottom"
 
 
 def deviation(inflation, approx_xyz, approx_uv, surface: str = "mid") -> Deviation:

@@ -6,7 +6,7 @@ of :func:`design.design_io.read_design`); it builds the double-layer mesh,
 inflates it three times (strings at their median, lo95 and hi95 lengths,
 each simulated at l + 2Δ with Δ the calibration's posterior median) and
 compares each result with Ŝ on the named face (:func:`check.compare.length_keeping_face`:
-the face opposite the larger share of string length, the face that keeps Ω's lengths as Ŝ
+the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
 does), with the other faces for reference. SI units.
 
 The three runs are independent, so ``workers > 1`` runs them in that many
@@ -155,8 +155,9 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                               strict=strict, workers=workers)
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
-    span = np.linalg.norm(b - a, axis=1)          # the share of the mattress each string holds
-    named = length_keeping_face(span, string_sets[0].top) if surface == "auto" else surface
+    # each string's share of the bending: the string face shortens by about |kappa| d per unit length
+    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(b - a, axis=1)
+    named = length_keeping_face(share, string_sets[0].top) if surface == "auto" else surface
     free = np.where(string_sets[0].top, "bottom", "top")
     runs = {}
     for which, inf in zip(which_runs, inflations):

@@ -153,3 +153,20 @@ def test_runs_in_worker_processes_give_the_same_files(tmp_path, capsys):
     lo, hi = (docs[0]["envelope"][k]["rms_mm"] for k in ("lo95", "hi95"))
     assert lo != hi                                      # three different runs, not one copied
 
+
+
+def test_strings_on_both_faces_name_the_face_opposite_the_larger_bending(tmp_path):
+    # one top string (|kappa| 4 1/m) and one bottom string bending twice as much over the same span:
+    # the top face keeps its length best, so it is the named face
+    bottom = dict(_dash(2, "bottom", 225.0, 150.0), kappa_per_m=8.0)
+    design = make_design(tmp_path / "design", dashes=[_dash(1, "top", 75.0, 180.0), bottom])
+    out = tmp_path / "out"
+    assert main(["inflate", str(design), "--out", str(out), "--resolution-mm", "50", "--no-envelope"]) == 0
+    doc = json.loads((out / "inflate.json").read_text())
+    assert doc["deviation"]["surface"] == "top"
+    kap = {d["side"]: d for d in doc["dashes"]}
+    # each dash measured on the named (top) face and on the face opposite its own string; with the
+    # designer's sign (positive: bends away from the top) the top face always reads less than the
+    # bottom face, whichever way the mattress bends there (the inner face bends more)
+    assert kap["top"]["kappa_realized_per_m"] < kap["top"]["kappa_realized_free_per_m"]
+    assert kap["bottom"]["kappa_realized_per_m"] == kap["bottom"]["kappa_realized_free_per_m"] > 0
