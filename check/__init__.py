@@ -4,8 +4,8 @@ Public API (SI units: metres, 1/m):
 
 - :func:`check` -- inflate a :class:`~design.pipeline.DesignResult` at the median string
   lengths and at both tolerance ends (``inflation_check``).
-- :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ
-  (``compare``).
+- :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ on a
+  named face (:func:`length_keeping_face`: the face opposite the strings) (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
 """
@@ -15,7 +15,8 @@ from airmat.lazy import attach
 
 # public name -> its submodule, imported on first use (``airmat.lazy``)
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "compare": ["Deviation", "deviation", "realized_curvature", "surface_at"],
+    "compare": ["SURFACES", "Deviation", "deviation", "length_keeping_face", "realized_curvature",
+                "surface_at"],
     "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
     "report": ["write_check"],
     "validation": ["validate_equation3"],

@@ -1,28 +1,45 @@
-"""Compare an inflated mattress with Ŝ: Kabsch alignment, deviation, realized curvature per dash.
+"""Compare an inflated mattress with Ŝ on a named face: Kabsch alignment, deviation, realized curvature.
 
-The correspondence is known through Ω: the simulated mid-surface
-(top + bottom) / 2 is evaluated at the Ω coordinates of Ŝ's vertices by
-barycentric interpolation on the mattress grid, rigidly aligned to Ŝ
-(Kabsch, :meth:`scipy.spatial.transform.Rotation.align_vectors`), and the
-distances of corresponding points are the deviation. SI units.
+Which surface Ŝ stands for: Ŝ keeps Ω's edge lengths (σ ≈ 1). In the
+paper's model of a bend (§2.2, Figure 4a) the membrane *without* the string
+keeps its length L around the wrinkle ((π − θ)d = 2h), while the face with
+the string shortens to L* = L − 2h; the simulator agrees (σ ≈ 0.999 on the
+face opposite the strings, ≈ 0.89 on the string face). So Ŝ is the
+**length-keeping face**: the face opposite the strings. A design with
+strings on both faces (a saddle) is compared on the face opposite the larger
+share of bending, |κ| times the string's span (:func:`length_keeping_face`;
+a string face shortens by about |κ| d per unit length, so this face is the
+one whose lengths Ŝ misses least); the other surfaces (top, bottom, mid) are
+reported for reference.
+
+The correspondence is known through Ω: the simulated face is evaluated at
+the Ω coordinates of Ŝ's vertices by barycentric interpolation on the
+mattress grid, rigidly aligned to Ŝ (Kabsch,
+:meth:`scipy.spatial.transform.Rotation.align_vectors`), and the distances
+of corresponding points are the deviation. SI units.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from airmat.errors import InputError
 from airmat.geometry.polyline import midpoints
 from inflation.mesh import locate
 
-__all__ = ["Deviation", "surface_at", "deviation", "realized_curvature"]
+__all__ = ["SURFACES", "Deviation", "surface_at", "length_keeping_face", "deviation", "realized_curvature",
+           "menger_signed"]
+
+#: the surfaces of an inflated mattress a comparison can name
+SURFACES = ("top", "bottom", "mid")
 
 
 @dataclass(frozen=True)
 class Deviation:
-    """Distance of the aligned simulated mid-surface from Ŝ.
+    """Distance of a face of the aligned simulated mattress from Ŝ.
 
     Attributes
     ----------
@@ -33,7 +50,13 @@ class Deviation:
     per_vertex : ndarray of shape (n,)
         Distance at each vertex of Ŝ (m).
     aligned : ndarray of shape (n, 3)
-        The simulated mid-surface at Ŝ's vertices after alignment (m).
+        The simulated face at Ŝ's vertices after alignment (m).
+    surface : str
+        The face compared: ``"top"``, ``"bottom"`` or ``"mid"``.
+    rotation : ndarray of shape (3, 3)
+        The alignment x -> rotation @ x + translation (simulation frame to Ŝ's frame).
+    translation : ndarray of shape (3,)
+        (m).
     """
 
     rms: float
@@ -41,34 +64,79 @@ class Deviation:
     rms_pct_diag: float
     per_vertex: np.ndarray
     aligned: np.ndarray
+    surface: str = "mid"
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    translation: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def apply(self, xyz) -> np.ndarray:
+        """Points of the simulation frame, shape (k, 3) (m), moved into Ŝ's frame."""
+        return np.asarray(xyz, float) @ self.rotation.T + self.translation
 
 
-def surface_at(inflation, uv):
-    """Mid-surface points and top-face directions of an inflation at Ω points.
+def _check_surface(which: str) -> str:
+    if which not in SURFACES:
+        raise InputError(f"surface {which!r}: expected one of {', '.join(SURFACES)}", surface=which)
+    return which
+
+
+def surface_at(inflation, uv, which: str = "mid"):
+    """Points of one face of an inflation at Ω points, and the top-face directions there.
 
     Parameters
     ----------
     inflation : inflation.simulate.Inflation
     uv : ndarray of shape (k, 2)
         Points on Ω (m).
+    which : {"mid", "top", "bottom"}
+        The top face, the bottom face, or the mid-surface (top + bottom) / 2.
 
     Returns
     -------
-    mid : ndarray of shape (k, 3)
-        (top + bottom) / 2 interpolated at ``uv`` (m).
+    xyz : ndarray of shape (k, 3)
+        The face interpolated at ``uv`` (m).
     up : ndarray of shape (k, 3)
         Unit vectors from the bottom to the top face there (the top normal).
     """
+    _check_surface(which)
     mesh = inflation.mesh
     tri, bary = locate(mesh, uv)
     top = np.einsum("kj,kjd->kd", bary, inflation.xyz[mesh.top[tri]])
     bottom = np.einsum("kj,kjd->kd", bary, inflation.xyz[mesh.bottom[tri]])
     up = top - bottom
-    return 0.5 * (top + bottom), up / np.linalg.norm(up, axis=1, keepdims=True)
+    xyz = {"top": top, "bottom": bottom}.get(which)
+    return (0.5 * (top + bottom) if xyz is None else xyz), up / np.linalg.norm(up, axis=1, keepdims=True)
 
 
-def deviation(inflation, approx_xyz, approx_uv) -> Deviation:
-    """Deviation of the inflated mid-surface from Ŝ after a rigid (Kabsch) alignment.
+def length_keeping_face(weights, top) -> str:
+    """The face Ŝ stands for: opposite the larger share of bending.
+
+    Parameters
+    ----------
+    weights : ndarray of shape (k,)
+        Each string's share: |κ| times its span on Ω (the string face shortens by
+        about that times d; any nonnegative weight, e.g. spans alone).
+    top : ndarray of shape (k,) of bool
+        True for a string on the top face.
+
+    Returns
+    -------
+    str
+        ``"top"`` when the bottom strings' total weight is at least the top
+        strings' (a design without strings included), else ``"bottom"``.
+
+    Examples
+    --------
+    >>> length_keeping_face([0.3, 0.3, 0.2], [False, False, True])
+    'top'
+    >>> length_keeping_face([0.3], [True])
+    'bottom'
+    """
+    weights, top = np.asarray(weights, float), np.asarray(top, bool)
+    return "top" if weights[~top].sum() >= weights[top].sum() else "bottom"
+
+
+def deviation(inflation, approx_xyz, approx_uv, surface: str = "mid") -> Deviation:
+    """Deviation of one face of the inflation from Ŝ after a rigid (Kabsch) alignment.
 
     Parameters
     ----------
@@ -77,23 +145,27 @@ def deviation(inflation, approx_xyz, approx_uv) -> Deviation:
         Ŝ's vertices (m).
     approx_uv : ndarray of shape (n, 2)
         Their Ω coordinates (m).
+    surface : {"mid", "top", "bottom"}
+        The face compared with Ŝ.
     """
     target = np.asarray(approx_xyz, float)
-    mid, _ = surface_at(inflation, approx_uv)
-    tc, mc = target.mean(axis=0), mid.mean(axis=0)
-    rot, _ = Rotation.align_vectors(target - tc, mid - mc)
-    aligned = rot.apply(mid - mc) + tc
+    face, _ = surface_at(inflation, approx_uv, surface)
+    tc, mc = target.mean(axis=0), face.mean(axis=0)
+    rot, _ = Rotation.align_vectors(target - tc, face - mc)
+    matrix = rot.as_matrix()
+    aligned = (face - mc) @ matrix.T + tc
     dist = np.linalg.norm(aligned - target, axis=1)
     diag = float(np.linalg.norm(np.ptp(target, axis=0)))
     rms = float(np.sqrt(np.mean(dist ** 2)))
     return Deviation(rms=rms, max=float(dist.max()), rms_pct_diag=100.0 * rms / diag,
-                     per_vertex=dist, aligned=aligned)
+                     per_vertex=dist, aligned=aligned, surface=surface, rotation=matrix,
+                     translation=tc - matrix @ mc)
 
 
-def realized_curvature(inflation, a, b, polylines) -> np.ndarray:
-    """Signed curvature (1/m) the simulated mid-surface realizes along each dash.
+def realized_curvature(inflation, a, b, polylines, surface: str = "mid") -> np.ndarray:
+    """Signed curvature (1/m) one face of the simulation realizes along each dash.
 
-    The circle through the mid-surface points at the dash's two ends and its
+    The circle through the face's points at the dash's two ends and its
     middle (Menger curvature); positive when the surface bends away from the
     top face, the sign convention of the designer.
 
@@ -103,16 +175,37 @@ def realized_curvature(inflation, a, b, polylines) -> np.ndarray:
         Dash ends on Ω (m).
     polylines : sequence of ndarray of shape (p, 2)
         Dash paths on Ω (m).
+    surface : {"mid", "top", "bottom"} or ndarray of shape (k,) of str
+        The face to measure on, for all dashes or per dash.
     """
     k = len(a)
     if k == 0:
         return np.zeros(0)
     pts = np.concatenate([np.asarray(a, float), midpoints(polylines), np.asarray(b, float)])
-    xyz, up = surface_at(inflation, pts)
-    p, m, q = xyz[:k], xyz[k:2 * k], xyz[2 * k:]
+    faces = np.broadcast_to(np.asarray(surface, dtype=object), (k,))
+    xyz = np.empty((3 * k, 3))
+    for name in set(faces):               # at most three faces
+        sel = np.tile(faces == name, 3)
+        xyz[sel], _ = surface_at(inflation, pts[sel], name)
+    _, up = surface_at(inflation, pts[k:2 * k])
+    return menger_signed(xyz[:k], xyz[k:2 * k], xyz[2 * k:], up)
+
+
+def menger_signed(p, m, q, up) -> np.ndarray:
+    """Signed curvature of the circle through p, m, q, each of shape (k, 3) (m): 1/m.
+
+    Negative when the chord's middle lies on the side of ``up`` from ``m``
+    (the surface bends toward the top face).
+
+    Examples
+    --------
+    >>> p, m, q = np.array([[-1.0, 0, 0]]), np.array([[0.0, 0, -1]]), np.array([[1.0, 0, 0]])
+    >>> menger_signed(p, m, q, np.array([[0.0, 0, 1]]))
+    array([-1.])
+    """
     area2 = np.linalg.norm(np.cross(m - p, q - p), axis=1)
     sides = np.linalg.norm(m - p, axis=1) * np.linalg.norm(q - m, axis=1) * np.linalg.norm(q - p, axis=1)
     kappa = 2.0 * area2 / np.maximum(sides, 1e-300)
     # the chord's middle lies on the concave side: toward the top face means kappa < 0
-    toward_top = np.einsum("kd,kd->k", 0.5 * (p + q) - m, up[k:2 * k]) > 0
+    toward_top = np.einsum("kd,kd->k", 0.5 * (p + q) - m, up) > 0
     return np.where(toward_top, -kappa, kappa)

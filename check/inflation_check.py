@@ -5,7 +5,9 @@
 of :func:`design.design_io.read_design`); it builds the double-layer mesh,
 inflates it three times (strings at their median, lo95 and hi95 lengths,
 each simulated at l + 2Δ with Δ the calibration's posterior median) and
-compares each result with Ŝ. SI units.
+compares each result with Ŝ on the named face (:func:`check.compare.length_keeping_face`:
+the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
+does), with the other faces for reference. SI units.
 
 The three runs are independent, so ``workers > 1`` runs them in that many
 processes (:func:`~inflation.simulate.inflate_many`).
@@ -18,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from check.compare import Deviation, deviation, realized_curvature
+from check.compare import SURFACES, Deviation, deviation, length_keeping_face, realized_curvature
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
@@ -68,14 +70,22 @@ class CheckRun:
         ``"median"``, ``"lo95"`` or ``"hi95"``: the string lengths used.
     inflation : inflation.simulate.Inflation
     deviation : check.compare.Deviation
+        On the named face (``DesignCheck.surface``).
     kappa_realized : ndarray of shape (k,)
-        Signed curvature realized along each string's dash (1/m).
+        Signed curvature realized along each string's dash on the named face (1/m).
+    deviations : dict of str -> Deviation
+        Every face (``"top"``, ``"bottom"``, ``"mid"``), the named one included, for reference.
+    kappa_realized_free : ndarray of shape (k,)
+        Along each dash on the face opposite its own string (the face that keeps its length
+        in the paper's Figure 4a; the named face for the majority side's strings) (1/m).
     """
 
     which: str
     inflation: Inflation
     deviation: Deviation
     kappa_realized: np.ndarray
+    deviations: dict = None
+    kappa_realized_free: np.ndarray = None
 
 
 @dataclass(frozen=True)
@@ -88,11 +98,15 @@ class DesignCheck:
     resolution : float
         Edge length of the double-layer mesh (m).
     runs : dict of str -> CheckRun
+    surface : str
+        The face Ŝ stands for, on which each run's ``deviation`` and ``kappa_realized``
+        are measured (``"top"``, ``"bottom"`` or ``"mid"``).
     """
 
     design: object
     resolution: float
     runs: dict
+    surface: str = "mid"
 
     @property
     def converged(self) -> bool:
@@ -101,7 +115,7 @@ class DesignCheck:
 
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
-          strict: bool = False, workers: int = 1) -> DesignCheck:
+          strict: bool = False, workers: int = 1, surface: str = "auto") -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -119,6 +133,9 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         Raise ConvergenceError when a run does not converge.
     workers : int
         Processes for the runs (1: one after the other, in this process).
+    surface : {"auto", "top", "bottom", "mid"}
+        The face compared with Ŝ; ``"auto"``: the length-keeping face
+        (:func:`~check.compare.length_keeping_face`).
 
     Returns
     -------
@@ -138,13 +155,20 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                               strict=strict, workers=workers)
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
+    # each string's share of the bending: the string face shortens by about |kappa| d per unit length
+    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(b - a, axis=1)
+    named = length_keeping_face(share, string_sets[0].top) if surface == "auto" else surface
+    free = np.where(string_sets[0].top, "bottom", "top")
     runs = {}
     for which, inf in zip(which_runs, inflations):
         if not inf.converged:
             log.warning("inflation with the %s string lengths did not converge: %s", which, inf.message)
-        dev = deviation(inf, design.approx.xyz, design.approx.uv)
-        kap = realized_curvature(inf, a, b, polylines)
-        log.info("%s lengths: %d Newton iterations in %.1f s; deviation RMS %.1f mm, max %.1f mm",
-                 which, inf.n_iter, inf.seconds, dev.rms * 1e3, dev.max * 1e3)
-        runs[which] = CheckRun(which, inf, dev, kap)
-    return DesignCheck(design=design, resolution=resolution, runs=runs)
+        devs = {face: deviation(inf, design.approx.xyz, design.approx.uv, face) for face in SURFACES}
+        dev = devs[named]
+        kap = realized_curvature(inf, a, b, polylines, named)
+        kap_free = realized_curvature(inf, a, b, polylines, free)
+        log.info("%s lengths: %d Newton iterations in %.1f s; deviation of the %s face RMS %.1f mm, max %.1f mm "
+                 "(mid-surface RMS %.1f mm)", which, inf.n_iter, inf.seconds, named, dev.rms * 1e3,
+                 dev.max * 1e3, devs["mid"].rms * 1e3)
+        runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free)
+    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named)

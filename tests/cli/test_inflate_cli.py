@@ -53,7 +53,13 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     lo = np.array([d["kappa_realized_lo95_per_m"] for d in doc["dashes"]])
     assert np.all(kap < 0) and np.all(lo < kap)
     assert (out / "inflated.ply").stat().st_size > 0 and (out / "deviation.png").stat().st_size > 0
-    assert "deviation from S-hat" in capsys.readouterr().out
+    assert "deviation from S-hat (bottom face)" in capsys.readouterr().out
+    # top strings only: the named face is the bottom one (it keeps its length); every face for reference
+    dev = doc["deviation"]
+    assert dev["surface"] == doc["surface"] == "bottom"
+    assert set(dev["surfaces"]) == {"top", "bottom", "mid"}
+    assert dev["surfaces"]["bottom"]["rms_mm"] == dev["rms_mm"]
+    assert all("kappa_realized_free_per_m" in d for d in doc["dashes"])
     _check_inflated_3dm(out / "inflated.3dm", design, doc)
 
 
@@ -77,6 +83,34 @@ def _check_inflated_3dm(path, design, doc):
     assert np.linalg.norm(med - s_hat, axis=1).max() <= doc["deviation"]["max_mm"] + 0.01
     curves = [o for o in model.Objects if o.Attributes.Name in {d["id"] for d in doc["dashes"]}]
     assert len(curves) == 2 * len(doc["dashes"])
+
+
+def test_inflated_ply_overlays_the_approx_surface(tmp_path):
+    # inflated.ply is in approx_surface's frame: its bottom face, read back at Ŝ's Ω points,
+    # lies on Ŝ within the reported RMS (the same rigid motion, so the same distances)
+    import trimesh
+
+    from check.compare import surface_at
+    from design.surface_io import read_approx_surface
+    from inflation.mesh import build_mattress_mesh
+
+    design = make_design(tmp_path / "design")
+    out = tmp_path / "out"
+    assert main(["inflate", str(design), "--out", str(out), "--resolution-mm", "50", "--no-envelope"]) == 0
+    doc = json.loads((out / "inflate.json").read_text())
+    ply = trimesh.load(out / "inflated.ply", process=False)
+    mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
+    assert len(ply.vertices) == mesh.n_vertices
+
+    class Read:
+        pass
+    inf = Read()
+    inf.mesh, inf.xyz = mesh, np.asarray(ply.vertices) * 1e-3
+    xyz, uv, _ = read_approx_surface(design / "approx_surface.ply")
+    face, _ = surface_at(inf, uv, "bottom")
+    dist = np.linalg.norm(face - xyz, axis=1) * 1e3
+    assert np.sqrt(np.mean(dist ** 2)) == pytest.approx(doc["deviation"]["rms_mm"], abs=0.01)
+    assert dist.max() == pytest.approx(doc["deviation"]["max_mm"], abs=0.01)
 
 
 @pytest.mark.parametrize("case,words", [
@@ -143,3 +177,20 @@ def test_runs_in_worker_processes_give_the_same_files(tmp_path, capsys):
     lo, hi = (docs[0]["envelope"][k]["rms_mm"] for k in ("lo95", "hi95"))
     assert lo != hi                                      # three different runs, not one copied
 
+
+
+def test_strings_on_both_faces_name_the_face_opposite_the_larger_bending(tmp_path):
+    # one top string (|kappa| 4 1/m) and one bottom string bending twice as much over the same span:
+    # the top face keeps its length best, so it is the named face
+    bottom = dict(_dash(2, "bottom", 225.0, 150.0), kappa_per_m=8.0)
+    design = make_design(tmp_path / "design", dashes=[_dash(1, "top", 75.0, 180.0), bottom])
+    out = tmp_path / "out"
+    assert main(["inflate", str(design), "--out", str(out), "--resolution-mm", "50", "--no-envelope"]) == 0
+    doc = json.loads((out / "inflate.json").read_text())
+    assert doc["deviation"]["surface"] == "top"
+    kap = {d["side"]: d for d in doc["dashes"]}
+    # each dash measured on the named (top) face and on the face opposite its own string; with the
+    # designer's sign (positive: bends away from the top) the top face always reads less than the
+    # bottom face, whichever way the mattress bends there (the inner face bends more)
+    assert kap["top"]["kappa_realized_per_m"] < kap["top"]["kappa_realized_free_per_m"]
+    assert kap["bottom"]["kappa_realized_per_m"] == kap["bottom"]["kappa_realized_free_per_m"] > 0
