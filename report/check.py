@@ -49,9 +49,9 @@ def curvature_figure(check) -> dict:
                      "text": ids, "marker": {"symbol": symbol, "color": colour, "size": 7},
                      "hovertemplate": "%{text}<br>target %{x:.3f} 1/m<br>realized %{y:.3f} 1/m<extra>"
                                       + key + "</extra>"})
-    lim = float(np.max(np.abs(kappa))) * 1.1 if kappa.size else 1.0
-    data.append({"type": "scatter", "mode": "lines", "name": "realized = target", "x": [-lim, lim],
-                 "y": [-lim, lim], "line": {"color": "grey", "dash": "dot", "width": 1}, "hoverinfo": "skip"})
+    lo, hi = (min(float(kappa.min()), 0.0) * 1.1, max(float(kappa.max()), 0.0) * 1.1) if kappa.size else (0, 1)
+    data.append({"type": "scatter", "mode": "lines", "name": "realized = target", "x": [lo, hi],
+                 "y": [lo, hi], "line": {"color": "grey", "dash": "dot", "width": 1}, "hoverinfo": "skip"})
     layout = {"xaxis": {"title": {"text": "target κ of the dash (1/m)"}},
               "yaxis": {"title": {"text": "realized κ along the dash (1/m)"}},
               "title": {"text": "curvature along each dash"}}

@@ -32,7 +32,7 @@ def test_demo_report_renders_offline(run_objects, tmp_path_factory):
     page = write_report(out, calibration=cal, design=result, check=checked, summary="demo summary",
                         title="airmat demo: vault1")
     seen = open_page(page, out / "browser")
-    print(f"screenshot of the demo report: {seen.screenshot}")
+    print(f"screenshot of the demo report: {seen.screenshot}; WebGL pixels drawn: {seen.gl_pixels}")
     assert seen.console_errors == [] and seen.requests == []
     # five plotly graphs drawn (each adds its main-svg); two 3D scenes, each a WebGL canvas with a mesh on it
     assert seen.dom.count('class="main-svg"') >= 5
