@@ -86,8 +86,10 @@ def figure_html(fig: dict, div_id: str, *, height: int = 480) -> str:
     str
     """
     layout = {"height": height, "margin": {"l": 60, "r": 20, "t": 40, "b": 50}, **fig.get("layout", {})}
-    data = json.dumps(fig["data"], default=_jsonable, separators=(",", ":"), allow_nan=False)
-    lay = json.dumps(layout, default=_jsonable, separators=(",", ":"), allow_nan=False)
+    data = json.dumps(fig["data"], default=_jsonable, separators=(",", ":"), allow_nan=False,
+                      ensure_ascii=False)
+    lay = json.dumps(layout, default=_jsonable, separators=(",", ":"), allow_nan=False,
+                      ensure_ascii=False)
     config = '{"responsive":true,"displaylogo":false,"showLink":false,"showSendToCloud":false}'
     # "</" would end the script element early
     data, lay = data.replace("</", "<\\/"), lay.replace("</", "<\\/")
