@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Create the virtual environment and install airmat with its test extras.
-# Installs the system libraries open3d needs (libgl1, libegl1, libusb-1.0-0, libgomp1) when missing.
+# Installs the system libraries open3d needs (libgl1, libegl1, libusb-1.0-0, libgomp1) and chromium
+# (the report's browser test) when missing.
 set -euo pipefail
 VENV=${1:-.venv}
 
@@ -15,6 +16,15 @@ if [ ${#need[@]} -gt 0 ]; then
         echo "bootstrap: need root to install ${need[*]} (apt-get install ${need[*]})" >&2; exit 2; fi
     $SUDO apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
+fi
+
+# headless Chromium opens report.html in tests/report (a real browser, offline)
+if ! command -v chromium >/dev/null; then
+    echo "bootstrap: installing chromium for the report's browser test"
+    if [ "$(id -u)" -eq 0 ]; then SUDO=""; elif command -v sudo >/dev/null; then SUDO="sudo"; else
+        echo "bootstrap: need root to install chromium (apt-get install chromium)" >&2; exit 2; fi
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
 fi
 
 PYTHON=""
@@ -33,6 +43,6 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 "$VENV/bin/python" -m pip install -q --upgrade pip
 "$VENV/bin/python" -m pip install -q -e ".[test]"
-"$VENV/bin/python" -c "import open3d, emcee, trimesh, skimage, igl, ezdxf" \
+"$VENV/bin/python" -c "import open3d, emcee, trimesh, skimage, igl, ezdxf, plotly" \
     || { echo "bootstrap: imports failed after install" >&2; exit 2; }
 echo "bootstrap: ready ($VENV)"

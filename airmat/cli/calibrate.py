@@ -16,7 +16,7 @@ def add_parser(sub, parents):
     p.add_argument("manifest", metavar="MANIFEST",
                    help="CSV with columns scan,l_mm,L_mm[,surface_offset_mm]; scans relative to it")
     p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: calibration.json, posterior.npz, specimens.csv, curve.png, corner.png")
+                   help="output folder: calibration.json, posterior.npz, specimens.csv, curve.png, corner.png, report.html")
     from airmat.cli.fit import add_scan_options
 
     add_scan_options(p, index=False)
@@ -54,6 +54,7 @@ def run(args) -> int:
     from calib.calibrate import calibrate
     from calib.plots import plot_corner, plot_curve
     from calib.calibration_io import summary_text, write_calibration
+    from report.page import write_report
 
     check_out_dir(args.out, inputs=[args.manifest, args.truth])
     truth = _read_truth(args.truth)
@@ -63,6 +64,7 @@ def run(args) -> int:
         write_calibration(cal, tmp, truth=truth)
         plot_curve(cal, tmp / "curve.png", truth=truth)
         plot_corner(cal.posterior, tmp / "corner.png", truths=truth)
+        write_report(tmp, calibration=cal, title=f"airmat calibrate: {args.manifest}")
     print(summary_text(cal, args.out))
     return not_converged("calibrate", calibration_not_converged(cal))
 

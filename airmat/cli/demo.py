@@ -18,7 +18,7 @@ def add_parser(sub, parents):
                        help="run the whole pipeline on synthetic data and summarise it",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--out", default="out/demo", metavar="DIR",
-                   help="output folder (default out/demo): synth/, calibration/, design/, inflate/")
+                   help="output folder (default out/demo): report.html, synth/, calibration/, design/, inflate/")
     p.add_argument("--preset", default="vault1",
                    help="target preset to design and inflate (default vault1)")
     p.add_argument("--points", type=int, default=100_000, help="points per synthetic scan (default 100000)")
@@ -61,7 +61,7 @@ def summary(out: Path, cal, truth: dict, design, check, seconds: dict) -> str:
         f"  inflation    deviation from S-hat: RMS {dev.rms * 1e3:.1f} mm ({dev.rms_pct_diag:.2f}% of the "
         f"diagonal), max {dev.max * 1e3:.1f} mm" + (env if len(runs) > 1 else ""),
         "  time         " + ", ".join(f"{k} {v:.1f} s" for k, v in seconds.items()),
-        f"  files        {out}/synth, {out}/calibration, {out}/design, {out}/inflate",
+        f"  files        {out}/report.html, {out}/synth, {out}/calibration, {out}/design, {out}/inflate",
     ]
     return "\n".join(lines)
 
@@ -95,6 +95,7 @@ def run(args) -> int:
     from design.design_io import write_design
     from design.pipeline import design
     from design.presets import preset
+    from report.page import write_report
 
     # every option is checked before the first step runs
     check_out_dir(args.out)
@@ -133,6 +134,9 @@ def run(args) -> int:
         checked = check(result, resolution=args.resolution_mm * MM, workers=workers)
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
-    print(summary(out, cal, cs.truth, result, checked, seconds))
+        text = summary(out, cal, cs.truth, result, checked, seconds)
+        write_report(tmp, calibration=cal, design=result, check=checked, summary=text,
+                     title=f"airmat demo: {args.preset}")
+    print(text)
     return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)
                          + check_not_converged(checked))

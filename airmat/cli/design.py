@@ -48,7 +48,7 @@ def add_parser(sub, parents):
     p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
-                        "cutting_list.csv, preview.png, design.3dm (Rhino)")
+                        "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
     p.set_defaults(func=run)
 
 
@@ -148,6 +148,7 @@ def run(args) -> int:
     from design.mattress import check_spacing
     from design.pipeline import design
     from design.stripes import check_stripe_params
+    from report.page import write_report
 
     check_out_dir(args.out, inputs=[args.target, args.calibration])
     logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines are about DXF internals
@@ -165,6 +166,7 @@ def run(args) -> int:
                     progress=progress_enabled())
     with staged(args.out) as tmp:
         doc = write_design(result, tmp)
+        write_report(tmp, design=result, title=f"airmat design: {result.name}")
     print(summary_text(doc, args.out))
     return not_converged("design", design_not_converged(result))
 

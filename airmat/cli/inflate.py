@@ -13,7 +13,7 @@ def add_parser(sub, parents):
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
     p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: inflate.json, inflated.ply, inflated.3dm (Rhino), deviation.png")
+                   help="output folder: inflate.json, inflated.ply, inflated.3dm (Rhino), deviation.png, report.html")
     p.add_argument("--resolution-mm", type=float, default=20.0,
                    help="edge length of the double-layer mesh (default 20, near the loop-pin spacing)")
     p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
@@ -34,6 +34,7 @@ def run(args) -> int:
     from design.design_io import read_design
     from inflation.model import Parameters
     from check.report import summary_text, write_check
+    from report.page import write_report
 
     check_out_dir(args.out, inputs=[args.design])
     if not (args.resolution_mm > 0):
@@ -48,6 +49,7 @@ def run(args) -> int:
                    workers=workers)
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
+        write_report(tmp, check=result, title=f"airmat inflate: {design.name}")
     print(summary_text(doc, args.out))
     return not_converged("inflate", check_not_converged(result))
 

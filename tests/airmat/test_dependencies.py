@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-PRODUCT = ("airmat", "calib", "design", "inflation", "check")
+PRODUCT = ("airmat", "calib", "design", "inflation", "check", "report")
 
 
 def _imports(path: Path):
@@ -64,6 +64,7 @@ ALLOWED = {
     "inflation": {"airmat"},
     "check": {"airmat", "calib", "design", "inflation"},
     "data_synthetic": {"airmat", "calib"},
+    "report": {"airmat", "calib", "design", "check", "inflation"},
 }
 
 

@@ -13,7 +13,7 @@ import pytest
 from airmat.lazy import attach
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("calib", "design", "design.export", "inflation", "check", "data_synthetic")
+PACKAGES = ("calib", "design", "design.export", "inflation", "check", "data_synthetic", "report")
 
 
 @pytest.mark.parametrize("package", PACKAGES)

@@ -64,7 +64,8 @@ def test_calibrate_writes_every_file_with_the_fields(synth_set, tmp_path, capsys
     stdout = capsys.readouterr().out
     assert "Delta =" in stdout and "95%" in stdout and str(out) in stdout
     assert {p.name for p in out.iterdir()} == {"calibration.json", "posterior.npz", "specimens.csv",
-                                               "curve.png", "corner.png"}
+                                               "curve.png", "corner.png", "report.html"}
+    assert "κ₁(l/L)" in (out / "report.html").read_text(encoding="utf-8")
     doc = json.loads((out / "calibration.json").read_text())
     for name in ("delta_mm", "d_mm", "sigma_per_m"):
         assert set(doc["parameters"][name]) == {"median", "lo95", "hi95"}

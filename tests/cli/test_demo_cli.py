@@ -22,3 +22,7 @@ def test_demo_runs_the_whole_pipeline(tmp_path, capsys):
     # a designed preset lands near its S-hat: the vault1 pattern covers the mattress in patches, and the
     # measured RMS deviation is ~3.4 % of the diagonal at 50 mm; 6 % allows the coarser 60 mm mesh
     assert inf["deviation"]["rms_pct_diag"] < 6.0
+    page = (out / "report.html").read_text(encoding="utf-8")
+    for title in ("<h2>Summary</h2>", "<h2>Calibration</h2>", "<h2>Design</h2>", "<h2>Inflation check</h2>"):
+        assert title in page
+    assert "UNCALIBRATED" not in page and page.count("plotly.js v") == 1

@@ -10,7 +10,7 @@ from airmat.cli import main
 from design.design_io import OUTPUT_FILES
 from data_synthetic.targets import cylinder
 
-FILES = set(OUTPUT_FILES)
+FILES = set(OUTPUT_FILES) | {"report.html"}
 FAST = ["--spacing-mm", "40"]
 
 

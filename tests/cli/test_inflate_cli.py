@@ -53,6 +53,8 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     lo = np.array([d["kappa_realized_lo95_per_m"] for d in doc["dashes"]])
     assert np.all(kap < 0) and np.all(lo < kap)
     assert (out / "inflated.ply").stat().st_size > 0 and (out / "deviation.png").stat().st_size > 0
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "Inflation check" in page and "k1-002-01" in page and "did NOT converge" not in page
     assert "deviation from S-hat (bottom face)" in capsys.readouterr().out
     # top strings only: the named face is the bottom one (it keeps its length); every face for reference
     dev = doc["deviation"]

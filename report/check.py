@@ -1,0 +1,104 @@
+"""The check part of the report: Ŝ and the inflated shape overlaid in 3D, the envelope, realized κ per dash.
+
+Built from a :class:`check.inflation_check.DesignCheck` in memory (SI), shown in mm and 1/m.
+"""
+
+from __future__ import annotations
+
+from html import escape
+
+import numpy as np
+
+from airmat.units import M_TO_MM
+from report.mesh import display_grid, mesh3d_trace
+from report.page import Part, figure_html
+from report.table import html_table
+
+__all__ = ["overlay_figure", "curvature_figure", "check_part"]
+
+_RUN_MARK = {"median": ("circle", "rgb(31,119,180)"), "lo95": ("triangle-down", "rgb(44,160,44)"),
+             "hi95": ("triangle-up", "rgb(255,127,14)")}
+
+
+def overlay_figure(check) -> dict:
+    """Ŝ (grey, translucent) and the aligned inflated mid-surface of the median run coloured by its deviation."""
+    a, dev = check.design.approx, check.runs["median"].deviation
+    keep, faces = display_grid(a.uv, a.faces)
+    s_hat = mesh3d_trace(a.xyz[keep], faces, name="Ŝ (design)", color="lightgrey", opacity=0.45)
+    inflated = mesh3d_trace(dev.aligned[keep], faces, intensity=dev.per_vertex[keep] * M_TO_MM,
+                            name="inflated (median strings)", colorscale="Viridis",
+                            colorbar_title="deviation (mm)", hover="deviation %{intensity:.1f} mm")
+    layout = {"scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
+                        "yaxis": {"title": {"text": "y (mm)"}}, "zaxis": {"title": {"text": "z (mm)"}}},
+              "legend": {"x": 0, "y": 1},
+              "title": {"text": f"inflated mid-surface over Ŝ: RMS {dev.rms * M_TO_MM:.1f} mm, "
+                                f"max {dev.max * M_TO_MM:.1f} mm; drag to rotate"}}
+    return {"data": [s_hat, inflated], "layout": layout}
+
+
+def curvature_figure(check) -> dict:
+    """Realized against target κ per dash for every run (hover: the dash id), with the line y = x."""
+    strings = check.design.pattern.strings
+    kappa = np.array([s.kappa for s in strings], float)
+    ids = [s.dash.id for s in strings]
+    data = []
+    for key, run in check.runs.items():
+        symbol, colour = _RUN_MARK.get(key, ("square", "black"))
+        data.append({"type": "scatter", "mode": "markers", "name": f"strings at {key}",
+                     "x": np.round(kappa, 4), "y": np.round(np.asarray(run.kappa_realized, float), 4),
+                     "text": ids, "marker": {"symbol": symbol, "color": colour, "size": 7},
+                     "hovertemplate": "%{text}<br>target %{x:.3f} 1/m<br>realized %{y:.3f} 1/m<extra>"
+                                      + key + "</extra>"})
+    lo, hi = (min(float(kappa.min()), 0.0) * 1.1, max(float(kappa.max()), 0.0) * 1.1) if kappa.size else (0, 1)
+    data.append({"type": "scatter", "mode": "lines", "name": "realized = target", "x": [lo, hi],
+                 "y": [lo, hi], "line": {"color": "grey", "dash": "dot", "width": 1}, "hoverinfo": "skip"})
+    layout = {"xaxis": {"title": {"text": "target κ of the dash (1/m)"}},
+              "yaxis": {"title": {"text": "realized κ along the dash (1/m)"}},
+              "title": {"text": "curvature along each dash"}}
+    return {"data": data, "layout": layout}
+
+
+def _runs_table(check) -> str:
+    rows = []
+    for key, run in check.runs.items():
+        inf, dev = run.inflation, run.deviation
+        rows.append([key, "yes" if inf.converged else "NO", inf.n_iter, f"{inf.residual:.2e}",
+                     f"{dev.rms * M_TO_MM:.1f}", f"{dev.max * M_TO_MM:.1f}", f"{dev.rms_pct_diag:.2f}",
+                     f"{inf.seconds:.1f}", inf.message])
+    return html_table(["string lengths", "converged", "Newton iterations", "residual", "RMS (mm)", "max (mm)",
+                       "RMS (% of diagonal)", "time (s)", "message"], rows)
+
+
+def check_part(check, *, with_design_banner: bool = True) -> Part:
+    """The inflation-check section of the page.
+
+    Parameters
+    ----------
+    check : check.inflation_check.DesignCheck
+    with_design_banner : bool
+        Say UNCALIBRATED at the top for an uncalibrated design (when the page has no design part to say it).
+
+    Returns
+    -------
+    report.page.Part
+    """
+    d = check.design
+    banners = []
+    if with_design_banner and d.calibration.uncalibrated:
+        banners.append(("warn", f"UNCALIBRATED design: {d.calibration.label}"))
+    failed = [k for k, r in check.runs.items() if not r.inflation.converged]
+    body = (f"<p>Design <b>{escape(d.name)}</b> inflated on a {check.resolution * M_TO_MM:g} mm double-layer mesh "
+            f"({check.runs['median'].inflation.mesh.n_vertices} vertices); strings simulated at l* = l + 2Δ.</p>\n")
+    if failed:
+        msg = "; ".join(f"{k}: {check.runs[k].inflation.message}" for k in failed)
+        body += f'<div class="banner bad">The inflation did NOT converge ({escape(msg)}).</div>\n'
+        banners.append(("bad", f"Inflation did NOT converge for {', '.join(failed)}: the shapes below are "
+                               "not equilibria."))
+    if not d.pattern.strings:
+        body += '<div class="banner bad">The design has no strings: the mattress inflates flat.</div>\n'
+    body += ("<h3>Ŝ and the inflated shape</h3>\n" + figure_html(overlay_figure(check), "check-overlay", height=620)
+             + "<h3>Runs: the median lengths and the tolerance envelope (lo95, hi95)</h3>\n" + _runs_table(check))
+    if d.pattern.strings:
+        body += ("<h3>Realized against target curvature per dash</h3>\n"
+                 + figure_html(curvature_figure(check), "check-curvature", height=480))
+    return Part("Inflation check", body, tuple(banners))

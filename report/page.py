@@ -1,0 +1,153 @@
+"""One self-contained ``report.html``: the parts of a run on one page, plotly.js inlined once.
+
+:func:`report_html` assembles the page from the objects a run holds (a
+``Calibration``, a ``DesignResult``, a ``DesignCheck``; any subset) and
+:func:`write_report` writes it atomically. Figures are plotly figure
+dictionaries (``{"data": [...], "layout": {...}}``) built by the part modules
+(:mod:`report.calibration`, :mod:`report.design`, :mod:`report.check`) and
+drawn by the inlined plotly.js: the page makes no request to any server.
+Numbers on the page are in millimetres and 1/m.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from html import escape
+from pathlib import Path
+
+import numpy as np
+
+from airmat.atomic import atomic_write_text
+from report.table import SORT_JS
+
+__all__ = ["Part", "figure_html", "plotly_js", "report_html", "write_report", "REPORT_NAME"]
+
+REPORT_NAME = "report.html"
+
+_CSS = """
+body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1250px; color: #222; }
+h1 { font-size: 1.5em; } h2 { border-bottom: 2px solid #ccc; margin-top: 2em; } h3 { margin-top: 1.4em; }
+.banner { padding: .7em 1em; margin: .8em 0; font-weight: bold; border-radius: 4px; }
+.banner.warn { background: #fff3cd; border: 1px solid #e0b000; }
+.banner.bad { background: #fde2e1; border: 1px solid #c0392b; color: #8b1a10; }
+.banner.ok { background: #e3f5e1; border: 1px solid #2e8b57; }
+table { border-collapse: collapse; margin: .5em 0; font-size: .9em; }
+th, td { border: 1px solid #ccc; padding: .2em .6em; text-align: right; }
+th { background: #f2f2f2; } td:first-child, th:first-child { text-align: left; }
+table.sortable th { cursor: pointer; } table.sortable th[data-sort=asc]::after { content: " \\25B2"; }
+table.sortable th[data-sort=desc]::after { content: " \\25BC"; }
+.scroll { max-height: 32em; overflow-y: auto; display: inline-block; }
+.plot { width: 100%; } pre { background: #f7f7f7; padding: .8em; overflow-x: auto; }
+"""
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the page: a heading, its HTML body, and the banners for the top of the page.
+
+    Attributes
+    ----------
+    title : str
+    body : str
+        HTML (figures as :func:`figure_html`).
+    banners : tuple of (str, str)
+        ``(kind, text)`` with kind ``"warn"``, ``"bad"`` or ``"ok"``: shown at the top.
+    """
+
+    title: str
+    body: str
+    banners: tuple = ()
+
+
+def _jsonable(obj):
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    raise TypeError(f"not JSON serializable: {type(obj).__name__}")
+
+
+def figure_html(fig: dict, div_id: str, *, height: int = 480) -> str:
+    """A ``<div>`` and the script that draws plotly figure ``fig`` into it.
+
+    Parameters
+    ----------
+    fig : dict
+        ``{"data": [trace dicts], "layout": {...}}``; numpy arrays are written as lists
+        (round them first: every digit is a byte of the page).
+    div_id : str
+        Unique id of the div on the page.
+    height : int
+        Height in pixels.
+
+    Returns
+    -------
+    str
+    """
+    layout = {"height": height, "margin": {"l": 60, "r": 20, "t": 40, "b": 50}, **fig.get("layout", {})}
+    data = json.dumps(fig["data"], default=_jsonable, separators=(",", ":"), allow_nan=False,
+                      ensure_ascii=False)
+    lay = json.dumps(layout, default=_jsonable, separators=(",", ":"), allow_nan=False,
+                      ensure_ascii=False)
+    config = '{"responsive":true,"displaylogo":false,"showLink":false,"showSendToCloud":false}'
+    # "</" would end the script element early
+    data, lay = data.replace("</", "<\\/"), lay.replace("</", "<\\/")
+    return (f'<div id="{escape(div_id)}" class="plot"></div>\n'
+            f'<script>Plotly.newPlot("{escape(div_id)}",{data},{lay},{config});</script>\n')
+
+
+def plotly_js() -> str:
+    """The minified plotly.js that ships with the plotly package (inlined: no CDN)."""
+    from importlib.resources import files
+
+    return (files("plotly") / "package_data" / "plotly.min.js").read_text(encoding="utf-8")
+
+
+def report_html(*, calibration=None, design=None, check=None, summary: str | None = None,
+                title: str = "airmat report") -> str:
+    """The whole page for the objects given (any subset; the check brings its design if none is given).
+
+    Parameters
+    ----------
+    calibration : calib.calibrate.Calibration, optional
+    design : design.pipeline.DesignResult, optional
+    check : check.inflation_check.DesignCheck, optional
+    summary : str, optional
+        Plain text shown first (the demo's summary).
+    title : str
+
+    Returns
+    -------
+    str
+        HTML5 with every script and all data inlined.
+    """
+    if calibration is None and design is None and check is None:
+        raise ValueError("a report needs a calibration, a design or a check")
+    parts = []
+    # each part imports its own stage's packages: a calibration report loads no design code
+    if calibration is not None:
+        from report.calibration import calibration_part
+        parts.append(calibration_part(calibration))
+    if design is not None:
+        from report.design import design_part
+        parts.append(design_part(design))
+    if check is not None:
+        from report.check import check_part
+        parts.append(check_part(check, with_design_banner=design is None))
+    banners = [b for p in parts for b in p.banners]
+    head = "".join(f'<div class="banner {k}">{escape(t)}</div>\n' for k, t in dict.fromkeys(banners))
+    if summary:
+        head += f"<h2>Summary</h2>\n<pre>{escape(summary)}</pre>\n"
+    body = "".join(f"<h2>{escape(p.title)}</h2>\n{p.body}\n" for p in parts)
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+            f"<title>{escape(title)}</title>\n<style>{_CSS}</style>\n"
+            f"<script>{plotly_js()}</script>\n</head>\n<body>\n<h1>{escape(title)}</h1>\n{head}{body}"
+            f"<script>{SORT_JS}</script>\n</body></html>\n")
+
+
+def write_report(folder, **kwargs) -> Path:
+    """Write ``folder/report.html`` atomically (arguments as :func:`report_html`); return its path."""
+    path = Path(folder) / REPORT_NAME
+    atomic_write_text(path, report_html(**kwargs))
+    return path
