@@ -18,6 +18,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "compare": ["SURFACES", "Deviation", "deviation", "length_keeping_face", "realized_curvature",
                 "surface_at"],
     "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
+    "length_map": ["LengthMap", "length_map"],
     "report": ["write_check"],
     "validation": ["validate_equation3"],
 })

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from check.compare import SURFACES, Deviation, deviation, length_keeping_face, realized_curvature
+from check.length_map import length_map
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
@@ -56,7 +57,7 @@ def design_strings(design, which: str = "median") -> StringSet:
     b = np.array([s.dash.b for s in strings], float).reshape(k, 2)
     top = np.array([s.side == "top" for s in strings], bool)
     length = np.array([getattr(s, f"l_{which}") for s in strings], float)
-    return StringSet(a, b, top, length + 2.0 * design.calibration.delta_median,
+    return StringSet(a, b, top, length_map(design.calibration).to_simulated(length),
                      tuple(s.dash.id for s in strings))
 
 
