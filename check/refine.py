@@ -143,16 +143,17 @@ class _Problem:
                       linear_system=self.system, desc="refine")
         except AirmatError:
             return None
+        log.debug("trial equilibrium: %d Newton iterations, %s", r.n_iter, r.message)
         return r if r.converged else None
 
     def jacobian(self, rest, x):
-        """(3N, k) Jacobian of the face fit's residual with respect to l*."""
+        """The (3N, k) Jacobian of the face fit's residual with respect to l*, and dx/dl* (3n, k)."""
         model = self.model(rest)
         fac = factor_equilibrium(model, x, self.asm, self.system.chol)
         dx = equilibrium_jacobian(fac, rest_derivative(model.springs[-1], x, self.mesh.thickness))
         n, k = len(x), len(rest)
         face = (self.p @ dx.reshape(n, 3 * k)).reshape(-1, 3, k)
-        return face.reshape(-1, k) / np.sqrt(self.p.shape[0])
+        return face.reshape(-1, k) / np.sqrt(self.p.shape[0]), dx
 
 
 def _bounds(design, strings) -> tuple:
@@ -243,7 +244,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     return dataclasses.replace(res, design=dataclasses.replace(res.design, refine=res.block()))
 
 
-def _gauss_newton(prob: _Problem, l0, x0, lo, hi, *, alpha, max_iter, ftol, xtol) -> dict:
+def _gauss_newton(prob: _Problem, l0, x0, lo, hi, *, alpha, max_iter, ftol, xtol, lam0=1e-3) -> dict:
     """Bounded Levenberg–Marquardt over l*; returns the best lengths and how it went."""
     k = len(l0)
     w = np.sqrt(alpha / k)
@@ -254,9 +255,10 @@ def _gauss_newton(prob: _Problem, l0, x0, lo, hi, *, alpha, max_iter, ftol, xtol
     l, x = l0.copy(), x0
     fit = face_fit(prob.p, x, prob.approx_xyz)
     f = f_start = total(fit, l)
-    lam, it, converged, message = 1e-3, 0, False, f"not converged after {max_iter} iterations"
+    lam, it, converged, message = lam0, 0, False, f"not converged after {max_iter} iterations"
     while it < max_iter:
-        a = np.vstack([prob.jacobian(l, x), w * np.eye(k)])
+        jac, dx = prob.jacobian(l, x)
+        a = np.vstack([jac, w * np.eye(k)])
         r = np.concatenate([fit.residual, w * (l - l0)])
         scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
         accepted = False
@@ -267,7 +269,8 @@ def _gauss_newton(prob: _Problem, l0, x0, lo, hi, *, alpha, max_iter, ftol, xtol
             if np.max(np.abs(step)) < xtol or predicted <= 0:
                 converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
                 break
-            eq = prob.equilibrium(l + step, x)
+            # first-order predictor: the equilibrium moves by dx/dl* step, then a few Newton steps
+            eq = prob.equilibrium(l + step, x + (dx @ step).reshape(x.shape))
             if eq is not None:
                 fit_new = face_fit(prob.p, eq.xyz, prob.approx_xyz)
                 f_new = total(fit_new, l + step)
