@@ -51,7 +51,7 @@ from inflation.simulate import inflate
 from inflation.solver import NewtonSystem, rigid_pins, solve
 from inflation.strings import check_resolution
 
-__all__ = ["Refinement", "refine", "refined_design", "REFINE_FLAG"]
+__all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
 log = logging.getLogger(__name__)
 
@@ -162,6 +162,23 @@ def _bounds(design, strings) -> tuple:
     return lo, span
 
 
+def check_refinable(design, resolution: float) -> None:
+    """Refuse, before any work, what :func:`refine` cannot refine.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        No strings, a resolution too coarse for them (:func:`~inflation.strings.check_resolution`),
+        or no posterior samples in the design's calibration.
+    """
+    if len(design.pattern.strings) == 0:
+        raise InputError("the design has no strings: nothing to refine")
+    if getattr(design.calibration, "n_samples", 0) == 0:
+        raise InputError("the design's calibration has no posterior samples: a refined length's "
+                         "tolerance cannot be computed")
+    check_resolution(design_strings(design, "median"), resolution)
+
+
 def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-2,
            max_iter: int = 15, ftol: float = 2e-3, xtol: float = 1e-5, tol: float = 1e-6,
            surface: str = "auto") -> Refinement:
@@ -192,13 +209,12 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     Raises
     ------
     airmat.errors.InputError
-        A design without strings, or a resolution too coarse for them.
+        A design without strings, a resolution too coarse for them, or a calibration
+        without posterior samples (the tolerance of a refined length comes from them).
     """
     t0 = time.perf_counter()
+    check_refinable(design, resolution)
     strings = design_strings(design, "median")
-    if len(strings) == 0:
-        raise InputError("the design has no strings: nothing to refine")
-    check_resolution(strings, resolution)
     mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
                                resolution=resolution)
     share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(strings.b - strings.a, axis=1)
@@ -266,6 +282,7 @@ def _gauss_newton(prob: _Problem, l0, x0, lo, hi, *, alpha, max_iter, ftol, xtol
             aug = np.vstack([a, np.sqrt(lam) * np.diag(scale)])
             step = lsq_linear(aug, -np.concatenate([r, np.zeros(k)]), bounds=(lo - l, hi - l)).x
             predicted = float(r @ r - np.sum((r + a @ step) ** 2))
+            log.debug("step %s predicted %.3g lam %.2g", np.round(step * 1e3, 3), predicted, lam)
             if np.max(np.abs(step)) < xtol or predicted <= 0:
                 converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
                 break
