@@ -152,7 +152,7 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
 
 def test_cli_design_refine_too_coarse_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "d"
-    code = main(["design", "--preset", "vault1", "--refine", "--refine-resolution-mm", "500", "--out", str(out)])
+    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-resolution-mm", "500", "--out", str(out)])
     assert code == 2 and not out.exists()
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "too coarse" in err[0]
