@@ -7,6 +7,9 @@ Public API (SI units: metres, 1/m):
 - :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ on a
   named face (:func:`length_keeping_face`: the face opposite the strings) (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
+- :func:`refine` -- the string lengths refined through the inflated equilibrium (adjoint
+  Gauss–Newton), a refined DesignResult and its ``refine`` block (``refinement``, ``adjoint``,
+  ``refine_objective``).
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
 """
 
@@ -20,5 +23,8 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
     "length_map": ["LengthMap", "length_map"],
     "report": ["write_check"],
+    "refinement": ["Refinement", "refine", "check_refinable", "refined_design"],
+    "adjoint": ["rest_derivative", "factor_equilibrium", "equilibrium_jacobian", "adjoint_gradient"],
+    "refine_objective": ["face_operator", "face_fit"],
     "validation": ["validate_equation3"],
 })

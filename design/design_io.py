@@ -76,6 +76,8 @@ def document(result: DesignResult) -> dict:
     if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
         doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
                              "message": str(a.relax.message)}
+    if result.refine is not None:   # lengths refined through the inflation (check.refine)
+        doc["refine"] = dict(result.refine)
     return doc
 
 
@@ -246,6 +248,14 @@ def _report(doc: dict, path: Path) -> ConstructibilityReport | None:
         raise InputError(f"report lacks field {err}", path=path) from None
 
 
+def _refine_block(doc: dict, path: Path) -> dict | None:
+    """design.json's ``refine`` block (written by a refinement), or None."""
+    block = doc.get("refine")
+    if block is not None and not isinstance(block, dict):
+        raise InputError(f"field 'refine' must be an object, got {block!r}", path=path)
+    return block
+
+
 def read_design(folder) -> DesignResult:
     """Read a folder written by :func:`write_design` (``airmat design``) into a DesignResult.
 
@@ -299,4 +309,4 @@ def read_design(folder) -> DesignResult:
                            report=_report(doc, path))
     return DesignResult(name=str(doc.get("name", folder.name)), approx=approx, pattern=pattern,
                         calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)),
-                        source=str(folder))
+                        source=str(folder), refine=_refine_block(doc, path))

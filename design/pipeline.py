@@ -138,6 +138,9 @@ class DesignResult:
         The folder the design was written to or read from, if any.
     timings : dict
         Seconds per stage (the surface side's stages, ``transfer``, ``stripes``, ``lengths``).
+    refine : dict or None
+        The ``refine`` block of design.json (mm) when the lengths were refined through the
+        inflation (:func:`check.refine.refine`), else None.
     """
 
     name: str
@@ -150,6 +153,7 @@ class DesignResult:
     stripes: Stripes | None = field(default=None, repr=False)
     source: str | None = None
     timings: dict = field(default_factory=dict, compare=False)
+    refine: dict | None = None
 
     @property
     def mattress(self):

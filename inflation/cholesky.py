@@ -219,10 +219,11 @@ class ShiftedCholesky:
         return len(_import_cvxopt()[0].getfactor(self._symbolic)) if self._ok else 0
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,)."""
+        """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,) or (n, m)."""
         if not self._ok:
             raise RuntimeError("no positive definite factorization to solve with")
         cholmod, matrix, _ = _import_cvxopt()
-        x = matrix(np.array(b, dtype=float, copy=True))
+        b = np.asarray(b, dtype=float)
+        x = matrix(np.array(b, dtype=float, copy=True, order="F"))
         cholmod.solve(self._symbolic, x)
-        return np.array(x).reshape(-1)
+        return np.array(x).reshape(b.shape)

@@ -31,7 +31,7 @@ from airmat.progress import set_progress  # noqa: E402
 __all__ = ["main", "build_parser"]
 
 #: subcommand modules, in the order ``--help`` lists them
-COMMANDS = ("synth", "fit", "calibrate", "design", "inflate", "retie", "validate", "gallery", "demo")
+COMMANDS = ("synth", "fit", "calibrate", "design", "refine", "inflate", "retie", "validate", "gallery", "demo")
 
 log = logging.getLogger("airmat")
 

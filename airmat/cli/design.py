@@ -46,6 +46,11 @@ def add_parser(sub, parents):
     p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (default: the relaxation's)")
     p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (default: the relaxation's)")
     p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
+    p.add_argument("--refine", action="store_true",
+                   help="refine the string lengths through the simulated inflation (adjoint Gauss-Newton), "
+                        "so that the inflated named face lands on the approximated surface")
+    p.add_argument("--refine-resolution-mm", type=float, default=20.0,
+                   help="mesh edge length of the refinement's inflations (default 20)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
@@ -162,13 +167,28 @@ def run(args) -> int:
         raise InputError(f"--spacing-mm {args.spacing_mm:g}: {err.message}") from None
     L = params.L if params.L is not None else (calibration.L if calibration else PAPER["L"])
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
+    if args.refine and not (args.refine_resolution_mm > 0):
+        raise InputError(f"--refine-resolution-mm must be > 0, got {args.refine_resolution_mm!r}")
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
                     progress=progress_enabled())
+    failed = design_not_converged(result)
+    if args.refine:
+        from airmat.units import MM
+        from check.refinement import refine
+
+        refinement = refine(result, resolution=args.refine_resolution_mm * MM)
+        result = refinement.design
+        failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:
         doc = write_design(result, tmp)
         write_report(tmp, design=result, title=f"airmat design: {result.name}")
     print(summary_text(doc, args.out))
-    return not_converged("design", design_not_converged(result))
+    return not_converged("design", failed)
+
+
+def refine_not_converged(refinement) -> list[str]:
+    """What did not converge in a refinement (its best lengths are written, never worse than open loop)."""
+    return [] if refinement.converged else [f"refinement: {refinement.message}"]
 
 
 def design_not_converged(result) -> list[str]:

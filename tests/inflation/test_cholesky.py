@@ -98,3 +98,16 @@ def test_cvxopts_openblas_runs_the_kernels_of_this_cpu(user):
     if want is None:
         pytest.skip("no AVX2 on this CPU: OpenBLAS chooses its kernels itself")
     assert corename.lower() == want.lower()
+
+
+def test_solve_takes_several_right_hand_sides_at_once():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(6, 6))
+    h = sp.csr_matrix(a @ a.T + 6 * np.eye(6))
+    c = ShiftedCholesky(h)
+    assert c.factor(h)
+    b = rng.normal(size=(6, 4))
+    x = c.solve(b)
+    assert x.shape == (6, 4)
+    np.testing.assert_allclose(x, np.linalg.solve(h.toarray(), b), rtol=1e-10)
+    np.testing.assert_allclose(c.solve(b[:, 1]), x[:, 1], rtol=1e-12)

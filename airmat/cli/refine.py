@@ -1,0 +1,50 @@
+"""`airmat refine DESIGN_DIR --out DIR`: refine a design's string lengths through the simulated inflation."""
+
+from __future__ import annotations
+
+from airmat.errors import InputError
+
+
+def add_parser(sub, parents):
+    p = sub.add_parser("refine", parents=parents,
+                       help="refine the string lengths through the inflation so that it lands on the surface",
+                       description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder: the refined design (the files of 'airmat design', with a 'refine' "
+                        "block in design.json)")
+    p.add_argument("--resolution-mm", type=float, default=20.0,
+                   help="mesh edge length of the inflations (default 20); 'airmat inflate' at the same "
+                        "resolution reproduces the promised deviation")
+    p.add_argument("--max-iter", type=int, default=15, help="Gauss-Newton iterations (default 15)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from airmat.atomic import check_out_dir
+    from airmat.cli._exit import not_converged
+    from airmat.cli.design import refine_not_converged
+    from airmat.cli.sigint import staged
+    from airmat.units import MM
+    from check.refinement import check_refinable, refine
+    from design.design_io import read_design, write_design
+    from report.page import write_report
+
+    check_out_dir(args.out, inputs=[args.design])
+    if not (args.resolution_mm > 0):
+        raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
+    if args.max_iter < 1:
+        raise InputError(f"--max-iter must be >= 1, got {args.max_iter}")
+    design = read_design(args.design)
+    check_refinable(design, args.resolution_mm * MM)
+    refinement = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter)
+    with staged(args.out) as tmp:
+        write_design(refinement.design, tmp)
+        write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
+    b = refinement.block()
+    print(f"airmat refine: {design.name} -> {args.out}")
+    print(f"  refined in {b['iterations']} iterations, {b['seconds']:.1f} s: named face RMS "
+          f"{b['deviation_before']['rms_mm']:.1f} -> {b['deviation_after']['rms_mm']:.1f} mm "
+          f"({b['deviation_before']['rms_pct_diag']:.2f} -> {b['deviation_after']['rms_pct_diag']:.2f} % of the "
+          f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}")
+    return not_converged("refine", refine_not_converged(refinement))

@@ -1,0 +1,344 @@
+"""Refine a design's string lengths through the equilibrium, so that the inflated named face lands on Ŝ.
+
+The open-loop lengths come from Equation 3 and the curvature under each
+dash alone; neighbouring strings interact, so :func:`refine` adjusts all the
+simulated rest lengths l* together. Objective: the mean squared distance of
+the named face (the check's face, :func:`check.compare.length_keeping_face`)
+from Ŝ after rigid alignment (:mod:`check.refine_objective`) plus a mild
+Tikhonov term ``alpha · mean((l* - l*_open)²)``: strings that barely move the
+named face (slack ones, or ones whose effect other strings can replace) stay
+at their open-loop length instead of drifting, and the Gauss–Newton matrix
+stays regular; ``alpha = 1e-2`` costs a 10 mm change of every string as much
+as 1 mm of RMS deviation.
+
+Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region. The
+Jacobian of the face is ``P dx/dl*`` with ``dx/dl* = -H⁻¹ ∂g/∂l*``
+(:mod:`check.adjoint`: one factorization of the Newton Hessian at each
+accepted equilibrium, one back-substitution per string); each trial step's
+equilibrium is solved on the final mesh from the last one (a few Newton
+steps, never from the flat mattress). Bounds: from the shortest a tie allows
+(real l = 0, through the length map) to the string's flat span (no bend).
+Stopping rule: a relative decrease of the objective below ``ftol`` over an
+accepted step, or a step shorter than ``xtol`` × the mean span.
+
+The refined lengths are checked by a fresh inflation (the check's own path,
+flat start and ramp), which gives ``deviation_after``; if it is worse than
+the open-loop deviation the open-loop lengths are kept (``converged=False``).
+SI units inside; the ``refine`` block of design.json is in mm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from airmat.errors import AirmatError, InputError
+from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
+from check.compare import Deviation, deviation, length_keeping_face
+from check.inflation_check import design_strings
+from check.length_map import length_map
+from check.refine_objective import face_fit, face_operator
+from inflation.assembly import build_assembler
+from inflation.energy import block_pattern
+from inflation.mesh import build_mattress_mesh
+from inflation.model import Parameters, build_model
+from inflation.simulate import inflate
+from inflation.solver import NewtonSystem, rigid_pins, solve
+from inflation.strings import check_resolution
+
+__all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
+
+log = logging.getLogger(__name__)
+
+#: flag of a string whose refined length hit the shortest a tie allows
+REFINE_FLAG = "refine_at_shortest"
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """The result of :func:`refine`.
+
+    Attributes
+    ----------
+    design : design.pipeline.DesignResult
+        The refined design: new ``l_median`` (lo95 / hi95 shifted by the same amount),
+        dropped strings removed, flagged ones flagged, and its ``refine`` block.
+    converged, iterations, seconds, message
+        Of the Gauss–Newton loop (seconds: the whole refinement, verification included).
+    objective_before, objective_after : float
+        Mean squared distance of the named face (m²), before and after (regularization included).
+    deviation_before, deviation_after : check.compare.Deviation
+        Of fresh inflations at the open-loop and the refined lengths (the check's numbers).
+    l_real : ndarray of shape (k,)
+        Refined real median length of every original string (m).
+    l_simulated : ndarray of shape (k,)
+        The refined simulated rest lengths l* (m).
+    dropped, flagged : tuple of str
+        Ids of strings whose refined length reached the flat span (removed) / the shortest.
+    inflation_seconds : float
+        One inflation of the open-loop design at this resolution (for the time ratio).
+    resolution : float
+        Mesh edge length (m).
+    surface : str
+        The named face.
+    """
+
+    design: object
+    converged: bool
+    iterations: int
+    seconds: float
+    message: str
+    objective_before: float
+    objective_after: float
+    deviation_before: Deviation
+    deviation_after: Deviation
+    l_real: np.ndarray
+    l_simulated: np.ndarray
+    dropped: tuple
+    flagged: tuple
+    inflation_seconds: float
+    resolution: float
+    surface: str
+
+    def block(self) -> dict:
+        """The ``refine`` block of design.json (mm, %)."""
+        def dev(d):
+            return {"rms_mm": round(d.rms * 1e3, 3), "max_mm": round(d.max * 1e3, 3),
+                    "rms_pct_diag": round(d.rms_pct_diag, 4)}
+        return {"converged": bool(self.converged), "iterations": int(self.iterations),
+                "seconds": round(float(self.seconds), 2), "resolution_mm": round(self.resolution * 1e3, 3),
+                "surface": self.surface, "deviation_before": dev(self.deviation_before),
+                "deviation_after": dev(self.deviation_after), "dropped": list(self.dropped),
+                "flagged": list(self.flagged), "message": self.message}
+
+
+@dataclass
+class _Problem:
+    """What every trial equilibrium shares: mesh, pins, assembler, linear solver, face operator."""
+
+    mesh: object
+    strings: object
+    params: Parameters
+    fixed: np.ndarray
+    asm: object
+    system: NewtonSystem
+    p: object
+    approx_xyz: np.ndarray
+    tol: float
+    max_newton: int
+
+    def model(self, rest):
+        return build_model(self.mesh, dataclasses.replace(self.strings, rest=rest), self.params)
+
+    def equilibrium(self, rest, x0):
+        """Solve from ``x0`` on the final mesh; None when it does not converge."""
+        try:
+            r = solve(self.model(rest), x0, fixed_dofs=self.fixed, tol=self.tol, max_iter=self.max_newton,
+                      max_move=0.5 * float(np.mean(self.mesh.spacing)), assembler=self.asm,
+                      linear_system=self.system, desc="refine")
+        except AirmatError:
+            return None
+        log.debug("trial equilibrium: %d Newton iterations, %s", r.n_iter, r.message)
+        return r if r.converged else None
+
+    def jacobian(self, rest, x):
+        """The (3N, k) Jacobian of the face fit's residual with respect to l*, and dx/dl* (3n, k)."""
+        model = self.model(rest)
+        fac = factor_equilibrium(model, x, self.asm, self.system.chol)
+        dx = equilibrium_jacobian(fac, rest_derivative(model.springs[-1], x, self.mesh.thickness))
+        n, k = len(x), len(rest)
+        face = (self.p @ dx.reshape(n, 3 * k)).reshape(-1, 3, k)
+        return face.reshape(-1, k) / np.sqrt(self.p.shape[0]), dx
+
+
+def _bounds(design, strings) -> tuple:
+    span = np.linalg.norm(strings.b - strings.a, axis=1)
+    lo = np.minimum(length_map(design.calibration).to_simulated(np.zeros(len(span))), 0.5 * span)
+    return lo, span
+
+
+def check_refinable(design, resolution: float) -> None:
+    """Refuse, before any work, what :func:`refine` cannot refine.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        No strings, a resolution too coarse for them (:func:`~inflation.strings.check_resolution`),
+        or no posterior samples in the design's calibration.
+    """
+    if len(design.pattern.strings) == 0:
+        raise InputError("the design has no strings: nothing to refine")
+    if getattr(design.calibration, "n_samples", 0) == 0:
+        raise InputError("the design's calibration has no posterior samples: a refined length's "
+                         "tolerance cannot be computed")
+    check_resolution(design_strings(design, "median"), resolution)
+
+
+def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-2,
+           max_iter: int = 15, ftol: float = 2e-3, xtol: float = 1e-5, tol: float = 1e-6,
+           surface: str = "auto") -> Refinement:
+    """Adjust the strings' lengths so that the inflated named face lands on Ŝ (see the module docstring).
+
+    Parameters
+    ----------
+    design : design.pipeline.DesignResult
+    resolution : float
+        Mesh edge length (m); the check of the refined design at the same resolution
+        reproduces ``deviation_after``.
+    params : Parameters
+    alpha : float
+        Weight of the regularization (dimensionless).
+    max_iter : int
+        Gauss–Newton iterations.
+    ftol, xtol : float
+        Stopping rule: relative objective decrease, step length / mean span.
+    tol : float
+        Force residual of every equilibrium.
+    surface : {"auto", "top", "bottom", "mid"}
+        The face; ``"auto"`` as the check chooses it.
+
+    Returns
+    -------
+    Refinement
+
+    Raises
+    ------
+    airmat.errors.InputError
+        A design without strings, a resolution too coarse for them, or a calibration
+        without posterior samples (the tolerance of a refined length comes from them).
+    """
+    t0 = time.perf_counter()
+    check_refinable(design, resolution)
+    strings = design_strings(design, "median")
+    mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
+                               resolution=resolution)
+    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(strings.b - strings.a, axis=1)
+    named = length_keeping_face(share, strings.top) if surface == "auto" else surface
+    ti = time.perf_counter()
+    first = inflate(mesh, strings, params=params, tol=tol)
+    t_inflate = time.perf_counter() - ti
+    dev0 = deviation(first, design.approx.xyz, design.approx.uv, named)
+    fixed = rigid_pins(mesh.uv, mesh.top)
+    model0 = build_model(mesh, strings, params)
+    asm = build_assembler(block_pattern(model0), model0.n_vertices, fixed)
+    prob = _Problem(mesh, strings, params, fixed, asm, NewtonSystem(groups=asm.free // 3),
+                    face_operator(mesh, design.approx.uv, named), design.approx.xyz, tol, 50)
+    lo, hi = _bounds(design, strings)
+    l_open = np.clip(strings.rest, lo, hi)
+    gn = _gauss_newton(prob, l_open, first.xyz, lo, hi, alpha=alpha, max_iter=max_iter, ftol=ftol,
+                       xtol=xtol * float(np.mean(hi)))
+    l_best, converged, message = gn["l"], gn["converged"], gn["message"]
+    span_tol = 1e-4 * hi
+    dropped = l_best >= hi - span_tol
+    flagged = l_best <= lo + span_tol
+    refined = refined_design(design, length_map(design.calibration).to_real(l_best), dropped, flagged)
+    final = inflate(mesh, design_strings(refined, "median"), params=params, tol=tol) \
+        if len(refined.pattern.strings) else inflate(mesh, None, params=params, tol=tol)
+    dev1 = deviation(final, design.approx.xyz, design.approx.uv, named)
+    if not final.converged or dev1.rms > dev0.rms:
+        message = (f"the refined lengths inflate to {dev1.rms * 1e3:.1f} mm RMS, not better than the "
+                   f"open-loop {dev0.rms * 1e3:.1f} mm: the open-loop lengths are kept")
+        converged, l_best, dev1 = False, l_open, dev0
+        dropped, flagged = np.zeros(len(l_best), bool), np.zeros(len(l_best), bool)
+        refined = dataclasses.replace(design)
+    ids = strings.ids
+    res = Refinement(design=refined, converged=converged, iterations=gn["iterations"],
+                     seconds=time.perf_counter() - t0, message=message, objective_before=gn["objective_before"],
+                     objective_after=gn["objective_after"], deviation_before=dev0, deviation_after=dev1,
+                     l_real=length_map(design.calibration).to_real(l_best), l_simulated=l_best,
+                     dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
+                     flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
+                     resolution=resolution, surface=named)
+    log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
+             "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
+             dev0.rms * 1e3, dev1.rms * 1e3)
+    return dataclasses.replace(res, design=dataclasses.replace(res.design, refine=res.block()))
+
+
+def _gauss_newton(prob: _Problem, l0, x0, lo, hi, *, alpha, max_iter, ftol, xtol, lam0=1e-3) -> dict:
+    """Bounded Levenberg–Marquardt over l*; returns the best lengths and how it went."""
+    k = len(l0)
+    w = np.sqrt(alpha / k)
+
+    def total(fit, l):
+        return fit.objective + w * w * float(np.sum((l - l0) ** 2))
+
+    l, x = l0.copy(), x0
+    fit = face_fit(prob.p, x, prob.approx_xyz)
+    f = f_start = total(fit, l)
+    lam, it, converged, message = lam0, 0, False, f"not converged after {max_iter} iterations"
+    while it < max_iter:
+        jac, dx = prob.jacobian(l, x)
+        a = np.vstack([jac, w * np.eye(k)])
+        r = np.concatenate([fit.residual, w * (l - l0)])
+        scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
+        accepted = False
+        for _ in range(8):
+            aug = np.vstack([a, np.sqrt(lam) * np.diag(scale)])
+            step = lsq_linear(aug, -np.concatenate([r, np.zeros(k)]), bounds=(lo - l, hi - l)).x
+            predicted = float(r @ r - np.sum((r + a @ step) ** 2))
+            log.debug("step %s predicted %.3g lam %.2g", np.round(step * 1e3, 3), predicted, lam)
+            if np.max(np.abs(step)) < xtol or predicted <= 0:
+                converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
+                break
+            # first-order predictor: the equilibrium moves by dx/dl* step, then a few Newton steps
+            eq = prob.equilibrium(l + step, x + (dx @ step).reshape(x.shape))
+            if eq is not None:
+                fit_new = face_fit(prob.p, eq.xyz, prob.approx_xyz)
+                f_new = total(fit_new, l + step)
+                rho = (f - f_new) / predicted
+                if rho > 1e-3:
+                    decrease = (f - f_new) / f
+                    l, x, fit, f, accepted = l + step, eq.xyz, fit_new, f_new, True
+                    lam = lam / 3.0 if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
+                    log.debug("refine iteration %d: objective %.4g mm², RMS %.2f mm, rho %.2f", it + 1,
+                              f * 1e6, np.sqrt(fit.objective) * 1e3, rho)
+                    if decrease < ftol:
+                        converged, message = True, f"converged: relative decrease {decrease:.2g} < {ftol:g}"
+                    break
+            lam *= 4.0
+        if converged:
+            it += int(accepted)
+            break
+        if not accepted:
+            message = "stalled: no step lowers the objective"
+            break
+        it += 1
+    return {"l": l, "converged": converged, "message": message, "iterations": it,
+            "objective_before": f_start, "objective_after": f}
+
+
+def refined_design(design, l_real, dropped, flagged):
+    """The design with new real median lengths (lo95 / hi95 shifted alike), dropped strings removed.
+
+    Parameters
+    ----------
+    design : design.pipeline.DesignResult
+    l_real : ndarray of shape (k,)
+        New real median length of each string (m).
+    dropped, flagged : ndarray of shape (k,) of bool
+
+    Returns
+    -------
+    design.pipeline.DesignResult
+    """
+    new = []
+    for s, l, drop, flag in zip(design.pattern.strings, l_real, dropped, flagged):
+        if drop:
+            continue
+        shift = float(l) - s.l_median
+        flags = s.flags + ((REFINE_FLAG,) if flag and REFINE_FLAG not in s.flags else ())
+        new.append(dataclasses.replace(s, l_median=float(l), l_lo95=s.l_lo95 + shift, l_hi95=s.l_hi95 + shift,
+                                       flags=flags))
+    n_drop = {fam: sum(1 for s, d in zip(design.pattern.strings, dropped) if d and s.dash.family == fam)
+              for fam in ("k1", "k2")}
+    n_no = {fam: design.pattern.n_no_string.get(fam, 0) + n_drop[fam] for fam in ("k1", "k2")}
+    notes = design.pattern.notes + ((f"refinement dropped {sum(n_drop.values())} strings that reached their "
+                                     f"flat span",) if any(dropped) else ())
+    pattern = dataclasses.replace(design.pattern, strings=tuple(new), n_no_string=n_no, notes=notes)
+    return dataclasses.replace(design, pattern=pattern)

@@ -1,0 +1,42 @@
+"""A small refinement case with a known answer: Ŝ is the inflated face of known string lengths."""
+
+import numpy as np
+
+from check.compare import surface_at
+from check.length_map import length_map
+from design.calibration_source import default_calibration
+from design.mattress import Mattress
+from design.pattern import Dash, Pattern, TensionString
+from design.pipeline import DesignParams, DesignResult
+from design.surface import ApproxSurface
+from inflation.mesh import build_mattress_mesh
+from inflation.simulate import inflate
+from inflation.strings import StringSet
+
+MATTRESS = Mattress(0.5, 0.4, 0.05)
+RESOLUTION = 0.04
+#: three bottom strings along u (Ω, m) and the simulated lengths that make Ŝ
+A = np.array([[0.08, 0.1], [0.08, 0.2], [0.08, 0.3]])
+B = np.array([[0.42, 0.1], [0.42, 0.2], [0.42, 0.3]])
+TRUE_SIM = np.array([0.30, 0.28, 0.305])
+
+
+def small_design(sim_lengths, *, true_sim=TRUE_SIM, n_samples=200):
+    """A DesignResult whose Ŝ is the top face of the inflation with ``true_sim`` (m), strings at ``sim_lengths``."""
+    m = MATTRESS
+    mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=RESOLUTION)
+    truth = inflate(mesh, StringSet(A, B, np.zeros(3, bool), np.asarray(true_sim, float), ("a", "b", "c")))
+    grid = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.05)
+    uv = grid.uv[grid.top]
+    xyz, _ = surface_at(truth, uv, "top")
+    cal = default_calibration(d=m.thickness, n_samples=n_samples)
+    real = length_map(cal).to_real(np.asarray(sim_lengths, float))
+    strings = tuple(TensionString(dash=Dash(f"k1-00{i}-01", "k1", i, 1, np.array([A[i], B[i]]),
+                                            float(np.linalg.norm(B[i] - A[i]))),
+                                  kappa=1.0, side="bottom", l_median=float(real[i]), l_lo95=float(real[i]) - 0.003,
+                                  l_hi95=float(real[i]) + 0.003) for i in range(3))
+    approx = ApproxSurface(target=None, mattress=m, xyz=xyz, uv=uv, faces=grid.grid_faces, relax=None,
+                           curvature=None, report=None)
+    pattern = Pattern(strings=strings, L=0.34, n_dashes={"k1": 3, "k2": 0}, n_no_string={"k1": 0, "k2": 0})
+    return DesignResult(name="small", approx=approx, pattern=pattern, calibration=cal,
+                        params=DesignParams(L=0.34), seed=0)
