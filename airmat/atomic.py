@@ -141,10 +141,16 @@ _exchange = _find_exchange()
 
 # ------------------------------------------------------------------- locks
 
+#: staging folders this process holds the lock of: a run staged inside one of them (``demo``
+#: stages its whole tree, ``synth`` inside it stages its own folder) is private to this process,
+#: so it takes no lock there (flock would wait for our own lock: a deadlock)
+_HELD: set = set()
+
+
 @contextlib.contextmanager
 def _locked(path: Path, *, blocking: bool = True) -> Iterator[bool]:
     """Hold an exclusive ``flock`` on the directory ``path``; yields whether it was obtained."""
-    if fcntl is None:  # pragma: no cover
+    if fcntl is None or (blocking and Path(path) in _HELD):  # a probe of our own folder still locks
         yield True
         return
     try:
@@ -392,6 +398,8 @@ def staged_dir(out: str | os.PathLike) -> Iterator[Path]:
             tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(out), dir=parent))
             # held until the run ends: tells other runs' sweeps that this folder is alive
             stack.enter_context(_locked(tmp))
+            _HELD.add(tmp)
+            stack.callback(_HELD.discard, tmp)
         try:
             yield tmp
             _publish(tmp, out, parent)

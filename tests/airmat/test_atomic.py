@@ -345,3 +345,25 @@ def test_check_out_dir_refuses_an_unwritable_parent(tmp_path):
         assert res.stdout.strip() == f"{target}: cannot write the output: no write permission in {tmp_path / 'ro'}"
     finally:
         os.chmod(tmp_path / "ro", 0o755)
+
+
+def test_a_run_staged_inside_another_runs_staging_folder_does_not_wait_for_itself(tmp_path):
+    """demo stages its whole tree and synth stages its own folder inside it: no deadlock, one tree."""
+    import threading
+
+    done = []
+
+    def nested():
+        with staged_dir(tmp_path / "demo") as outer:
+            with staged_dir(outer / "synth") as inner:
+                (inner / "a.txt").write_text("scan")
+            (outer / "b.txt").write_text("report")
+        done.append(True)
+
+    t = threading.Thread(target=nested, daemon=True)
+    t.start()
+    t.join(timeout=20)
+    assert done, "nested staged_dir did not finish: it waits for its own lock"
+    assert (tmp_path / "demo" / "synth" / "a.txt").read_text() == "scan"
+    assert (tmp_path / "demo" / "b.txt").read_text() == "report"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
