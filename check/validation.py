@@ -41,8 +41,8 @@ from inflation.model import Parameters
 from inflation.simulate import inflate_many
 from inflation.strings import StringSet
 
-__all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3", "validation_figure",
-           "polygon_curvature", "section_curvature", "turn_angle", "CLOSES_DEG"]
+__all__ = ["SpecimenLayout", "specimen_strings", "specimen_kappa", "ValidationPoint", "validate_equation3",
+           "validation_figure", "polygon_curvature", "section_curvature", "turn_angle", "CLOSES_DEG"]
 
 log = logging.getLogger(__name__)
 
@@ -140,6 +140,8 @@ class ValidationPoint:
         The model's free face: (π − θ) / L.
     turn_deg : float
         :func:`turn_angle`.
+    l_sim_over_L : float
+        The simulated rest length l*/L (l/L without a length map).
     """
 
     l_over_L: float
@@ -155,6 +157,7 @@ class ValidationPoint:
     kappa_free_se: float = float("nan")
     kappa_eq3_free: float = float("nan")
     turn_deg: float = float("nan")
+    l_sim_over_L: float = float("nan")
 
     @property
     def closes(self) -> bool:
@@ -190,15 +193,42 @@ def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, 
     return float(kappa.mean()), float(kappa.std(ddof=1) / np.sqrt(n_lines))
 
 
+def specimen_kappa(l_sim, *, layout: SpecimenLayout = SpecimenLayout(), resolution: float = 0.04,
+                   params: Parameters | None = None, workers: int = 1):
+    """The paper's κ₁ of the simulated specimen at each rest length (what the calibrated length map is built from).
+
+    Parameters
+    ----------
+    l_sim : array_like of shape (n,)
+        Simulated string rest lengths l* (m).
+    layout : SpecimenLayout
+    resolution : float
+        Mesh edge length (m).
+    params : Parameters, optional
+    workers : int
+
+    Returns
+    -------
+    kappa : ndarray of shape (n,)
+        Mean of :func:`polygon_curvature` (1/m).
+    converged : ndarray of shape (n,), bool
+    """
+    mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
+    infs = inflate_many(mesh, [specimen_strings(layout, float(l)) for l in np.atleast_1d(l_sim)],
+                        params=Parameters() if params is None else params, workers=workers, desc="length map")
+    return (np.array([np.mean(polygon_curvature(inf, layout)) for inf in infs]),
+            np.array([inf.converged for inf in infs], bool))
+
+
 def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: SpecimenLayout = SpecimenLayout(),
                        resolution: float = 0.04, params: Parameters = Parameters(), seed: int = 0,
-                       workers: int = 1):
+                       workers: int = 1, length_map=None, delta: float = 0.0, d: float | None = None):
     """Simulate the specimen for each l/L and measure its curvature.
 
     Parameters
     ----------
     ratios : sequence of float
-        The l/L to simulate.
+        The l/L to simulate (real l when ``length_map`` is given).
     layout : SpecimenLayout
     resolution : float
         Mesh edge length (m).
@@ -207,27 +237,36 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         Unused (no random step: the section circles are fitted by least squares); kept for the CLI.
     workers : int
         Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
+    length_map : check.length_map.LengthMap or CalibratedLengthMap, optional
+        Real length -> simulated rest length; default none (the rest length is l, Δ = 0).
+    delta, d : float
+        Equation 3's Δ and d (m) of ``kappa_eq3``: the calibration median with a
+        calibrated map; default Δ = 0 and d the layout's thickness.
 
     Returns
     -------
     list of ValidationPoint
     """
+    d = layout.thickness if d is None else float(d)
     mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
-    inflations = inflate_many(mesh, [specimen_strings(layout, float(r) * layout.L) for r in ratios],
+    real = np.asarray(ratios, float) * layout.L
+    l_sim = real if length_map is None else np.asarray(length_map.to_simulated(real), float)
+    inflations = inflate_many(mesh, [specimen_strings(layout, float(ls)) for ls in l_sim],
                               params=params, workers=workers, desc="validate")
     points = []
-    for r, inf in zip(ratios, inflations):
-        l = float(r) * layout.L
+    for r, l, ls, inf in zip(ratios, real, l_sim, inflations):
         k, se = section_curvature(inf, layout, "bottom")
         kf, sef = section_curvature(inf, layout, "top")
-        k3 = float(kappa1(l, layout.L, 0.0, layout.thickness))
-        k3_free = float((np.pi - bend_angle(l, layout.L, 0.0, layout.thickness)) / layout.L)
+        k3 = float(kappa1(l, layout.L, delta, d))
+        k3_free = float((np.pi - bend_angle(l, layout.L, delta, d)) / layout.L)
         kp = float(np.mean(polygon_curvature(inf, layout)))
         turn = turn_angle(inf, layout)
-        log.info("l/L = %.2f: string face %.2f 1/m (polygon), %.2f (sections); free face %.2f (sections); "
-                 "Equation 3 (Delta = 0) %.2f, free face %.2f; turns %.0f deg", r, kp, k, kf, k3, k3_free, turn)
+        log.info("l/L = %.2f (simulated l*/L = %.3f): string face %.2f 1/m (polygon), %.2f (sections); free face "
+                 "%.2f (sections); Equation 3 (Delta = %.1f mm) %.2f, free face %.2f; turns %.0f deg", r,
+                 ls / layout.L, kp, k, kf, delta * 1e3, k3, k3_free, turn)
         points.append(ValidationPoint(float(r), float(k), float(se), k3, kp, inf.converged, inf.n_iter,
-                                      inf.seconds, inf.message, float(kf), float(sef), k3_free, turn))
+                                      inf.seconds, inf.message, float(kf), float(sef), k3_free, turn,
+                                      float(ls / layout.L)))
     return points
 
 
