@@ -35,7 +35,7 @@ log = logging.getLogger(__name__)
 LENGTH_KEYS = ("median", "lo95", "hi95")
 
 
-def design_strings(design, which: str = "median") -> StringSet:
+def design_strings(design, which: str = "median", *, lengths=None) -> StringSet:
     """A design's strings at one end of their tolerance, as the simulator takes them (SI).
 
     Parameters
@@ -43,13 +43,16 @@ def design_strings(design, which: str = "median") -> StringSet:
     design : design.pipeline.DesignResult
     which : {"median", "lo95", "hi95"}
         Which length of each string.
+    lengths : check.length_map.LengthMap or CalibratedLengthMap, optional
+        Real length -> simulated rest length; default ``length_map(design.calibration)``.
 
     Returns
     -------
     StringSet
-        Ends on Ω (m) and the simulated rest length l* = l + 2Δ (m), Δ the
-        posterior median of the design's calibration: the simulated ends do
-        not slip (Equation 3's l*).
+        Ends on Ω (m) and the simulated rest length (m): by default l* = l + 2Δ,
+        Δ the posterior median of the design's calibration (the simulated ends do
+        not slip, Equation 3's l*); with a calibrated map, the rest length at which
+        the simulated specimen bends as the calibrated Equation 3 says.
     """
     strings = design.pattern.strings
     k = len(strings)
@@ -57,7 +60,8 @@ def design_strings(design, which: str = "median") -> StringSet:
     b = np.array([s.dash.b for s in strings], float).reshape(k, 2)
     top = np.array([s.side == "top" for s in strings], bool)
     length = np.array([getattr(s, f"l_{which}") for s in strings], float)
-    return StringSet(a, b, top, length_map(design.calibration).to_simulated(length),
+    lengths = length_map(design.calibration) if lengths is None else lengths
+    return StringSet(a, b, top, lengths.to_simulated(length),
                      tuple(s.dash.id for s in strings))
 
 
@@ -116,7 +120,8 @@ class DesignCheck:
 
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
-          strict: bool = False, workers: int = 1, surface: str = "auto") -> DesignCheck:
+          strict: bool = False, workers: int = 1, surface: str = "auto", calibrated_map: bool = False,
+          lengths=None) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -137,6 +142,12 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     surface : {"auto", "top", "bottom", "mid"}
         The face compared with Ŝ; ``"auto"``: the length-keeping face
         (:func:`~check.compare.length_keeping_face`).
+    calibrated_map : bool
+        Simulate each real length at the rest length of the calibrated length map
+        (:func:`~check.length_map.length_map` with ``calibrated=True``, built at this
+        resolution and the mattress's thickness, cached on disk) instead of l + 2Δ.
+    lengths : LengthMap or CalibratedLengthMap, optional
+        The map to use (overrides ``calibrated_map``).
 
     Returns
     -------
@@ -150,7 +161,10 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     m = design.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=resolution)
     which_runs = LENGTH_KEYS if envelope else ("median",)
-    string_sets = [design_strings(design, which) for which in which_runs]
+    if lengths is None:
+        lengths = length_map(design.calibration, calibrated=calibrated_map, resolution=resolution,
+                             thickness=m.thickness, params=params, workers=workers)
+    string_sets = [design_strings(design, which, lengths=lengths) for which in which_runs]
     check_resolution(string_sets[0], resolution)
     inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
                               strict=strict, workers=workers)

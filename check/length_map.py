@@ -63,7 +63,7 @@ class CalibratedLengthMap:
     """Real string length -> simulated rest length through a table of simulated specimens (m).
 
     Between the table's rows the map is a monotone cubic (PCHIP) of l_sim / L
-    over l / L, and its inverse the PCHIP of the same rows swapped. Outside
+    over l / L, and its inverse that cubic's exact inverse (bisection). Outside
     the table each end continues with slope 1 (a constant end slip, l* = l + s
     with s the end row's l_sim − l; the last row is Equation 3's flat length
     L − 2Δ at the simulator's flat length L, so above the table s = 2Δ), and
@@ -103,17 +103,18 @@ class CalibratedLengthMap:
         object.__setattr__(self, "l_real", r)
         object.__setattr__(self, "l_sim", s)
 
-    def _interp(self, x, xs, ys, what):
+    def _forward(self, x):
         from scipy.interpolate import PchipInterpolator
 
-        x = np.asarray(x, float)
-        out = PchipInterpolator(xs / self.L, ys / self.L, extrapolate=False)(x / self.L) * self.L
+        return PchipInterpolator(self.l_real / self.L, self.l_sim / self.L, extrapolate=False)(x / self.L) * self.L
+
+    def _outside(self, x, xs, ys, inside, what):
+        """``inside`` where x lies in [xs[0], xs[-1]], else the end rows continued with slope 1."""
         lo, hi = x < xs[0], x > xs[-1]
         if lo.any() or hi.any():
             log.info("%d %s length(s) outside the calibrated table [%.1f, %.1f] mm: continued with a constant "
                      "end slip", int(lo.sum() + hi.sum()), what, xs[0] * 1e3, xs[-1] * 1e3)
-        out = np.where(lo, x + (ys[0] - xs[0]), out)
-        return np.where(hi, x + (ys[-1] - xs[-1]), out)
+        return np.where(hi, x + (ys[-1] - xs[-1]), np.where(lo, x + (ys[0] - xs[0]), inside))
 
     def to_simulated(self, l) -> np.ndarray:
         """Simulated rest lengths (m) of real lengths ``l`` (m), any shape, monotone.
@@ -124,7 +125,8 @@ class CalibratedLengthMap:
         >>> m.to_simulated([0.1, 0.264, 0.28]).round(4).tolist()
         [0.16, 0.3, 0.316]
         """
-        return self._interp(l, self.l_real, self.l_sim, "real")
+        l = np.asarray(l, float)
+        return self._outside(l, self.l_real, self.l_sim, self._forward(l), "real")
 
     def to_real(self, l_sim) -> np.ndarray:
         """Real lengths (m) whose simulated rest length is ``l_sim`` (m): the inverse of :meth:`to_simulated`.
@@ -135,7 +137,16 @@ class CalibratedLengthMap:
         >>> bool(np.allclose(m.to_real(m.to_simulated([0.05, 0.2, 0.29])), [0.05, 0.2, 0.29]))
         True
         """
-        return self._interp(l_sim, self.l_sim, self.l_real, "simulated")
+        l_sim = np.asarray(l_sim, float)
+        # the exact inverse of the monotone cubic: bisection inside the row interval that holds l_sim
+        # (a PCHIP of the swapped rows would differ from the inverse between the rows)
+        i = np.clip(np.searchsorted(self.l_sim, l_sim) - 1, 0, self.l_sim.size - 2)
+        lo, hi = self.l_real[i], self.l_real[i + 1]
+        for _ in range(60):                        # 2^-60 of a row interval: below a nanometre
+            mid = 0.5 * (lo + hi)
+            below = self._forward(mid) < l_sim
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return self._outside(l_sim, self.l_sim, self.l_real, 0.5 * (lo + hi), "simulated")
 
 
 def length_map(calibration, *, calibrated: bool = False, resolution: float | None = None,

@@ -270,15 +270,21 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
     return points
 
 
-def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
-    """Simulated κ against l/L next to Equation 3 (Δ = 0): the figure of ``airmat validate``.
+def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout(), delta: float = 0.0,
+                      d: float | None = None, calibrated: bool = False):
+    """Simulated κ against l/L next to Equation 3: the figure of ``airmat validate``.
 
     Parameters
     ----------
     points : sequence of ValidationPoint
         As returned by :func:`validate_equation3` for ``layout``.
     layout : SpecimenLayout
-        Its L and thickness d give the Equation-3 curves and the labels.
+        Its L gives the Equation-3 curves and the labels.
+    delta, d : float
+        Equation 3's Δ and d (m); default Δ = 0 and the layout's thickness.
+    calibrated : bool
+        The points were simulated through a calibrated length map and Δ, d are the
+        calibration median: the labels say so.
 
     Returns
     -------
@@ -286,14 +292,16 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
         Lines in this order: Equation 3 (string face), the model's free face, the strip's
         cross-section circles (string face, free face), the measured polygon κ₁ (last).
     """
-    L_mm, d_mm = layout.L * 1e3, layout.thickness * 1e3
+    d = layout.thickness if d is None else float(d)
+    L_mm, d_mm = layout.L * 1e3, d * 1e3
     grid = np.linspace(0, 1, 201)
     x = np.array([p.l_over_L for p in points])
     fig = new_figure((7, 4.8))
     ax = fig.subplots()
-    ax.plot(grid, kappa1(grid * layout.L, layout.L, 0.0, layout.thickness), "k-",
-            label=f"Equation 3, Δ = 0, d = {d_mm:g} mm: 2cos(θ/2)/L* (string face)")
-    ax.plot(grid, (np.pi - bend_angle(grid * layout.L, layout.L, 0.0, layout.thickness)) / layout.L, "k--",
+    name = "calibrated κ₁ (posterior median): Equation 3" if calibrated else "Equation 3"
+    ax.plot(grid, kappa1(grid * layout.L, layout.L, delta, d), "k-",
+            label=f"{name}, Δ = {delta * 1e3:.3g} mm, d = {d_mm:.3g} mm: 2cos(θ/2)/L* (string face)")
+    ax.plot(grid, (np.pi - bend_angle(grid * layout.L, layout.L, delta, d)) / layout.L, "k--",
             label="the model's free face: (π − θ)/L")
     ax.errorbar(x, [p.kappa_sim for p in points], yerr=[2 * p.kappa_sim_se for p in points], fmt="o",
                 mfc="none", color="C3", label="simulated: cross-section circles, string face")
@@ -304,11 +312,13 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
         ax.plot(x[closes], [p.kappa_strings for p, c in zip(points, closes) if c], "x", color="grey", ms=10,
                 label=f"strip turns ≥ {CLOSES_DEG:g}° (would touch itself)")
     ax.plot(x, [p.kappa_strings for p in points], "s", color="C0",
-            label="simulated κ₁: circle through consecutive string ends (string face)")
-    ax.set_xlabel(f"string length ratio l / L (L = {L_mm:g} mm)")
+            label="simulated κ₁: circle through consecutive string ends (string face)"
+                  + (", through the calibrated length map" if calibrated else ""))
+    ax.set_xlabel(f"{'real ' if calibrated else ''}string length ratio l / L (L = {L_mm:g} mm)")
     ax.set_ylabel("curvature κ₁ (1/m)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title("airmat validate: inflation simulation against Equation 3")
+    ax.set_title("airmat validate: " + ("the calibrated simulator against the calibrated κ₁" if calibrated
+                                        else "inflation simulation against Equation 3"))
     fig.tight_layout()
     return fig
