@@ -4,7 +4,8 @@
 :class:`~design.pipeline.DesignResult` of :func:`design.pipeline.design` (or
 of :func:`design.design_io.read_design`); it builds the double-layer mesh,
 inflates it three times (strings at their median, lo95 and hi95 lengths,
-each simulated at l + 2Δ with Δ the calibration's posterior median) and
+each simulated at l + 2Δ with Δ the calibration's posterior median, or through
+the calibrated length map with ``calibrated_map=True``: :mod:`check.length_map`) and
 compares each result with Ŝ on the named face (:func:`check.compare.length_keeping_face`:
 the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
 does), with the other faces for reference. SI units.
@@ -106,12 +107,15 @@ class DesignCheck:
     surface : str
         The face Ŝ stands for, on which each run's ``deviation`` and ``kappa_realized``
         are measured (``"top"``, ``"bottom"`` or ``"mid"``).
+    lengths : LengthMap or CalibratedLengthMap
+        The real -> simulated string length map the runs used.
     """
 
     design: object
     resolution: float
     runs: dict
     surface: str = "mid"
+    lengths: object = None
 
     @property
     def converged(self) -> bool:
@@ -164,6 +168,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     if lengths is None:
         lengths = length_map(design.calibration, calibrated=calibrated_map, resolution=resolution,
                              thickness=m.thickness, params=params, workers=workers)
+    log.info("string lengths simulated through %s", type(lengths).__name__)
     string_sets = [design_strings(design, which, lengths=lengths) for which in which_runs]
     check_resolution(string_sets[0], resolution)
     inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
@@ -186,4 +191,4 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                  "(mid-surface RMS %.1f mm)", which, inf.n_iter, inf.seconds, named, dev.rms * 1e3,
                  dev.max * 1e3, devs["mid"].rms * 1e3)
         runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free)
-    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named)
+    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths)
