@@ -165,12 +165,12 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     m = design.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=resolution)
     which_runs = LENGTH_KEYS if envelope else ("median",)
+    check_resolution(design_strings(design), resolution)      # before any specimen runs of a calibrated map
     if lengths is None:
         lengths = length_map(design.calibration, calibrated=calibrated_map, resolution=resolution,
                              thickness=m.thickness, params=params, workers=workers)
-    log.info("string lengths simulated through %s", type(lengths).__name__)
+    log.debug("string lengths simulated through %s", type(lengths).__name__)
     string_sets = [design_strings(design, which, lengths=lengths) for which in which_runs]
-    check_resolution(string_sets[0], resolution)
     inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
                               strict=strict, workers=workers)
     a, b = string_sets[0].a, string_sets[0].b
