@@ -11,6 +11,8 @@ Public API (SI units: metres, 1/m):
   Gauss–Newton), a refined DesignResult and its ``refine`` block (``refinement``, ``adjoint``,
   ``refine_objective``).
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
+- :func:`length_map` -- real string length -> simulated rest length: l + 2Δ (:class:`LengthMap`) or
+  calibrated on simulated specimens (:class:`CalibratedLengthMap`, cached; ``length_map``, ``calibrated_map``).
 """
 
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
@@ -21,7 +23,8 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "compare": ["SURFACES", "Deviation", "deviation", "length_keeping_face", "realized_curvature",
                 "surface_at"],
     "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
-    "length_map": ["LengthMap", "length_map"],
+    "calibrated_map": ["calibrated_length_map"],
+    "length_map": ["LengthMap", "CalibratedLengthMap", "length_map"],
     "report": ["write_check"],
     "refinement": ["Refinement", "refine", "check_refinable", "refined_design"],
     "adjoint": ["rest_derivative", "factor_equilibrium", "equilibrium_jacobian", "adjoint_gradient"],

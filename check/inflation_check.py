@@ -4,7 +4,8 @@
 :class:`~design.pipeline.DesignResult` of :func:`design.pipeline.design` (or
 of :func:`design.design_io.read_design`); it builds the double-layer mesh,
 inflates it three times (strings at their median, lo95 and hi95 lengths,
-each simulated at l + 2Δ with Δ the calibration's posterior median) and
+each simulated at l + 2Δ with Δ the calibration's posterior median, or through
+the calibrated length map with ``calibrated_map=True``: :mod:`check.length_map`) and
 compares each result with Ŝ on the named face (:func:`check.compare.length_keeping_face`:
 the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
 does), with the other faces for reference. SI units.
@@ -35,7 +36,7 @@ log = logging.getLogger(__name__)
 LENGTH_KEYS = ("median", "lo95", "hi95")
 
 
-def design_strings(design, which: str = "median") -> StringSet:
+def design_strings(design, which: str = "median", *, lengths=None) -> StringSet:
     """A design's strings at one end of their tolerance, as the simulator takes them (SI).
 
     Parameters
@@ -43,13 +44,16 @@ def design_strings(design, which: str = "median") -> StringSet:
     design : design.pipeline.DesignResult
     which : {"median", "lo95", "hi95"}
         Which length of each string.
+    lengths : check.length_map.LengthMap or CalibratedLengthMap, optional
+        Real length -> simulated rest length; default ``length_map(design.calibration)``.
 
     Returns
     -------
     StringSet
-        Ends on Ω (m) and the simulated rest length l* = l + 2Δ (m), Δ the
-        posterior median of the design's calibration: the simulated ends do
-        not slip (Equation 3's l*).
+        Ends on Ω (m) and the simulated rest length (m): by default l* = l + 2Δ,
+        Δ the posterior median of the design's calibration (the simulated ends do
+        not slip, Equation 3's l*); with a calibrated map, the rest length at which
+        the simulated specimen bends as the calibrated Equation 3 says.
     """
     strings = design.pattern.strings
     k = len(strings)
@@ -57,7 +61,8 @@ def design_strings(design, which: str = "median") -> StringSet:
     b = np.array([s.dash.b for s in strings], float).reshape(k, 2)
     top = np.array([s.side == "top" for s in strings], bool)
     length = np.array([getattr(s, f"l_{which}") for s in strings], float)
-    return StringSet(a, b, top, length_map(design.calibration).to_simulated(length),
+    lengths = length_map(design.calibration) if lengths is None else lengths
+    return StringSet(a, b, top, lengths.to_simulated(length),
                      tuple(s.dash.id for s in strings))
 
 
@@ -102,12 +107,15 @@ class DesignCheck:
     surface : str
         The face Ŝ stands for, on which each run's ``deviation`` and ``kappa_realized``
         are measured (``"top"``, ``"bottom"`` or ``"mid"``).
+    lengths : LengthMap or CalibratedLengthMap
+        The real -> simulated string length map the runs used.
     """
 
     design: object
     resolution: float
     runs: dict
     surface: str = "mid"
+    lengths: object = None
 
     @property
     def converged(self) -> bool:
@@ -116,7 +124,8 @@ class DesignCheck:
 
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
-          strict: bool = False, workers: int = 1, surface: str = "auto") -> DesignCheck:
+          strict: bool = False, workers: int = 1, surface: str = "auto", calibrated_map: bool = False,
+          lengths=None) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -137,6 +146,12 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     surface : {"auto", "top", "bottom", "mid"}
         The face compared with Ŝ; ``"auto"``: the length-keeping face
         (:func:`~check.compare.length_keeping_face`).
+    calibrated_map : bool
+        Simulate each real length at the rest length of the calibrated length map
+        (:func:`~check.length_map.length_map` with ``calibrated=True``, built at this
+        resolution and the mattress's thickness, cached on disk) instead of l + 2Δ.
+    lengths : LengthMap or CalibratedLengthMap, optional
+        The map to use (overrides ``calibrated_map``).
 
     Returns
     -------
@@ -150,8 +165,12 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     m = design.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=resolution)
     which_runs = LENGTH_KEYS if envelope else ("median",)
-    string_sets = [design_strings(design, which) for which in which_runs]
-    check_resolution(string_sets[0], resolution)
+    check_resolution(design_strings(design), resolution)      # before any specimen runs of a calibrated map
+    if lengths is None:
+        lengths = length_map(design.calibration, calibrated=calibrated_map, resolution=resolution,
+                             thickness=m.thickness, params=params, workers=workers)
+    log.debug("string lengths simulated through %s", type(lengths).__name__)
+    string_sets = [design_strings(design, which, lengths=lengths) for which in which_runs]
     inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
                               strict=strict, workers=workers)
     a, b = string_sets[0].a, string_sets[0].b
@@ -172,4 +191,4 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                  "(mid-surface RMS %.1f mm)", which, inf.n_iter, inf.seconds, named, dev.rms * 1e3,
                  dev.max * 1e3, devs["mid"].rms * 1e3)
         runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free)
-    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named)
+    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths)

@@ -41,8 +41,8 @@ from inflation.model import Parameters
 from inflation.simulate import inflate_many
 from inflation.strings import StringSet
 
-__all__ = ["SpecimenLayout", "specimen_strings", "ValidationPoint", "validate_equation3", "validation_figure",
-           "polygon_curvature", "section_curvature", "turn_angle", "CLOSES_DEG"]
+__all__ = ["SpecimenLayout", "specimen_strings", "specimen_kappa", "ValidationPoint", "validate_equation3",
+           "validation_figure", "polygon_curvature", "section_curvature", "turn_angle", "CLOSES_DEG"]
 
 log = logging.getLogger(__name__)
 
@@ -140,6 +140,8 @@ class ValidationPoint:
         The model's free face: (π − θ) / L.
     turn_deg : float
         :func:`turn_angle`.
+    l_sim_over_L : float
+        The simulated rest length l*/L (l/L without a length map).
     """
 
     l_over_L: float
@@ -155,6 +157,7 @@ class ValidationPoint:
     kappa_free_se: float = float("nan")
     kappa_eq3_free: float = float("nan")
     turn_deg: float = float("nan")
+    l_sim_over_L: float = float("nan")
 
     @property
     def closes(self) -> bool:
@@ -190,15 +193,42 @@ def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, 
     return float(kappa.mean()), float(kappa.std(ddof=1) / np.sqrt(n_lines))
 
 
+def specimen_kappa(l_sim, *, layout: SpecimenLayout = SpecimenLayout(), resolution: float = 0.04,
+                   params: Parameters | None = None, workers: int = 1):
+    """The paper's κ₁ of the simulated specimen at each rest length (what the calibrated length map is built from).
+
+    Parameters
+    ----------
+    l_sim : array_like of shape (n,)
+        Simulated string rest lengths l* (m).
+    layout : SpecimenLayout
+    resolution : float
+        Mesh edge length (m).
+    params : Parameters, optional
+    workers : int
+
+    Returns
+    -------
+    kappa : ndarray of shape (n,)
+        Mean of :func:`polygon_curvature` (1/m).
+    converged : ndarray of shape (n,), bool
+    """
+    mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
+    infs = inflate_many(mesh, [specimen_strings(layout, float(l)) for l in np.atleast_1d(l_sim)],
+                        params=Parameters() if params is None else params, workers=workers, desc="length map")
+    return (np.array([np.mean(polygon_curvature(inf, layout)) for inf in infs]),
+            np.array([inf.converged for inf in infs], bool))
+
+
 def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: SpecimenLayout = SpecimenLayout(),
                        resolution: float = 0.04, params: Parameters = Parameters(), seed: int = 0,
-                       workers: int = 1):
+                       workers: int = 1, length_map=None, delta: float = 0.0, d: float | None = None):
     """Simulate the specimen for each l/L and measure its curvature.
 
     Parameters
     ----------
     ratios : sequence of float
-        The l/L to simulate.
+        The l/L to simulate (real l when ``length_map`` is given).
     layout : SpecimenLayout
     resolution : float
         Mesh edge length (m).
@@ -207,39 +237,54 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         Unused (no random step: the section circles are fitted by least squares); kept for the CLI.
     workers : int
         Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
+    length_map : check.length_map.LengthMap or CalibratedLengthMap, optional
+        Real length -> simulated rest length; default none (the rest length is l, Δ = 0).
+    delta, d : float
+        Equation 3's Δ and d (m) of ``kappa_eq3``: the calibration median with a
+        calibrated map; default Δ = 0 and d the layout's thickness.
 
     Returns
     -------
     list of ValidationPoint
     """
+    d = layout.thickness if d is None else float(d)
     mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
-    inflations = inflate_many(mesh, [specimen_strings(layout, float(r) * layout.L) for r in ratios],
+    real = np.asarray(ratios, float) * layout.L
+    l_sim = real if length_map is None else np.asarray(length_map.to_simulated(real), float)
+    inflations = inflate_many(mesh, [specimen_strings(layout, float(ls)) for ls in l_sim],
                               params=params, workers=workers, desc="validate")
     points = []
-    for r, inf in zip(ratios, inflations):
-        l = float(r) * layout.L
+    for r, l, ls, inf in zip(ratios, real, l_sim, inflations):
         k, se = section_curvature(inf, layout, "bottom")
         kf, sef = section_curvature(inf, layout, "top")
-        k3 = float(kappa1(l, layout.L, 0.0, layout.thickness))
-        k3_free = float((np.pi - bend_angle(l, layout.L, 0.0, layout.thickness)) / layout.L)
+        k3 = float(kappa1(l, layout.L, delta, d))
+        k3_free = float((np.pi - bend_angle(l, layout.L, delta, d)) / layout.L)
         kp = float(np.mean(polygon_curvature(inf, layout)))
         turn = turn_angle(inf, layout)
-        log.info("l/L = %.2f: string face %.2f 1/m (polygon), %.2f (sections); free face %.2f (sections); "
-                 "Equation 3 (Delta = 0) %.2f, free face %.2f; turns %.0f deg", r, kp, k, kf, k3, k3_free, turn)
+        log.info("l/L = %.2f (simulated l*/L = %.3f): string face %.2f 1/m (polygon), %.2f (sections); free face "
+                 "%.2f (sections); Equation 3 (Delta = %.1f mm) %.2f, free face %.2f; turns %.0f deg", r,
+                 ls / layout.L, kp, k, kf, delta * 1e3, k3, k3_free, turn)
         points.append(ValidationPoint(float(r), float(k), float(se), k3, kp, inf.converged, inf.n_iter,
-                                      inf.seconds, inf.message, float(kf), float(sef), k3_free, turn))
+                                      inf.seconds, inf.message, float(kf), float(sef), k3_free, turn,
+                                      float(ls / layout.L)))
     return points
 
 
-def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
-    """Simulated κ against l/L next to Equation 3 (Δ = 0): the figure of ``airmat validate``.
+def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout(), delta: float = 0.0,
+                      d: float | None = None, calibrated: bool = False):
+    """Simulated κ against l/L next to Equation 3: the figure of ``airmat validate``.
 
     Parameters
     ----------
     points : sequence of ValidationPoint
         As returned by :func:`validate_equation3` for ``layout``.
     layout : SpecimenLayout
-        Its L and thickness d give the Equation-3 curves and the labels.
+        Its L gives the Equation-3 curves and the labels.
+    delta, d : float
+        Equation 3's Δ and d (m); default Δ = 0 and the layout's thickness.
+    calibrated : bool
+        The points were simulated through a calibrated length map and Δ, d are the
+        calibration median: the labels say so.
 
     Returns
     -------
@@ -247,14 +292,16 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
         Lines in this order: Equation 3 (string face), the model's free face, the strip's
         cross-section circles (string face, free face), the measured polygon κ₁ (last).
     """
-    L_mm, d_mm = layout.L * 1e3, layout.thickness * 1e3
+    d = layout.thickness if d is None else float(d)
+    L_mm, d_mm = layout.L * 1e3, d * 1e3
     grid = np.linspace(0, 1, 201)
     x = np.array([p.l_over_L for p in points])
     fig = new_figure((7, 4.8))
     ax = fig.subplots()
-    ax.plot(grid, kappa1(grid * layout.L, layout.L, 0.0, layout.thickness), "k-",
-            label=f"Equation 3, Δ = 0, d = {d_mm:g} mm: 2cos(θ/2)/L* (string face)")
-    ax.plot(grid, (np.pi - bend_angle(grid * layout.L, layout.L, 0.0, layout.thickness)) / layout.L, "k--",
+    name = "calibrated κ₁ (posterior median): Equation 3" if calibrated else "Equation 3"
+    ax.plot(grid, kappa1(grid * layout.L, layout.L, delta, d), "k-",
+            label=f"{name}, Δ = {delta * 1e3:.3g} mm, d = {d_mm:.3g} mm: 2cos(θ/2)/L* (string face)")
+    ax.plot(grid, (np.pi - bend_angle(grid * layout.L, layout.L, delta, d)) / layout.L, "k--",
             label="the model's free face: (π − θ)/L")
     ax.errorbar(x, [p.kappa_sim for p in points], yerr=[2 * p.kappa_sim_se for p in points], fmt="o",
                 mfc="none", color="C3", label="simulated: cross-section circles, string face")
@@ -265,11 +312,13 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout()):
         ax.plot(x[closes], [p.kappa_strings for p, c in zip(points, closes) if c], "x", color="grey", ms=10,
                 label=f"strip turns ≥ {CLOSES_DEG:g}° (would touch itself)")
     ax.plot(x, [p.kappa_strings for p in points], "s", color="C0",
-            label="simulated κ₁: circle through consecutive string ends (string face)")
-    ax.set_xlabel(f"string length ratio l / L (L = {L_mm:g} mm)")
+            label="simulated κ₁: circle through consecutive string ends (string face)"
+                  + (", through the calibrated length map" if calibrated else ""))
+    ax.set_xlabel(f"{'real ' if calibrated else ''}string length ratio l / L (L = {L_mm:g} mm)")
     ax.set_ylabel("curvature κ₁ (1/m)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title("airmat validate: inflation simulation against Equation 3")
+    ax.set_title("airmat validate: " + ("the calibrated simulator against the calibrated κ₁" if calibrated
+                                        else "inflation simulation against Equation 3"))
     fig.tight_layout()
     return fig

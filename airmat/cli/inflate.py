@@ -19,6 +19,9 @@ def add_parser(sub, parents):
     p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
     p.add_argument("--no-envelope", action="store_true",
                    help="skip the runs with every string at its lo95 and hi95 length")
+    p.add_argument("--calibrated-map", action="store_true",
+                   help="simulate each string at the rest length that makes the simulated specimen bend as the "
+                        "calibration says (built from specimen runs at this resolution, cached), not at l + 2 delta")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
@@ -46,7 +49,7 @@ def run(args) -> int:
     workers = jobs(args)
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
-                   workers=workers)
+                   workers=workers, calibrated_map=args.calibrated_map)
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
         write_report(tmp, check=result, title=f"airmat inflate: {design.name}")

@@ -1,4 +1,9 @@
-"""`airmat validate --out DIR`: the simulated cylindrical-specimen experiment against Equation 3."""
+"""`airmat validate --out DIR [--calibration DIR]`: the simulated cylindrical-specimen experiment against Equation 3.
+
+With ``--calibration`` the specimen is simulated at the calibration's L, each real string
+length through the calibrated length map (``check.length_map``), and compared with the
+calibrated κ₁ median (Equation 3 with the posterior median's Δ and d).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +15,11 @@ def add_parser(sub, parents):
     p = sub.add_parser("validate", parents=parents,
                        help="simulate the paper's specimen experiment and compare with Equation 3 (Delta = 0)",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
+    p.add_argument("--calibration", metavar="DIR", default=None,
+                   help="output folder of 'airmat calibrate': simulate through its calibrated length map and compare "
+                        "with its kappa_1 median")
+    p.add_argument("--thickness-mm", type=float, default=None,
+                   help="mattress thickness of the specimen (default 70, or the calibration's median d)")
     p.add_argument("--out", default="out/validate", metavar="DIR",
                    help="output folder: validate.json, validate.csv, validate.png (default out/validate)")
     p.add_argument("--l-over-L", dest="ratios", default="0.3,0.4,0.5,0.6,0.7,0.8,0.9",
@@ -19,19 +29,19 @@ def add_parser(sub, parents):
     p.set_defaults(func=run)
 
 
-_COLUMNS = ("l_over_L", "kappa_polygon_per_m", "kappa_eq3_per_m", "kappa_section_string_face_per_m",
+_COLUMNS = ("l_over_L", "l_sim_over_L", "kappa_polygon_per_m", "kappa_eq3_per_m", "kappa_section_string_face_per_m",
             "kappa_section_string_face_se_per_m", "kappa_section_free_face_per_m", "kappa_section_free_face_se_per_m",
             "kappa_eq3_free_face_per_m", "turn_deg", "closes")
 
 
-def _write(points, folder, resolution_mm):
+def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=None):
     import json
 
     from airmat.atomic import atomic_write_text
     from airmat.figures import save_png
     from check.validation import validation_figure
 
-    rows = [{"l_over_L": p.l_over_L, "kappa_polygon_per_m": round(p.kappa_strings, 4),
+    rows = [{"l_over_L": p.l_over_L, "l_sim_over_L": round(p.l_sim_over_L, 5), "kappa_polygon_per_m": round(p.kappa_strings, 4),
              "kappa_eq3_per_m": round(p.kappa_eq3, 4),
              "kappa_section_string_face_per_m": round(p.kappa_sim, 4), "kappa_section_string_face_se_per_m":
              round(p.kappa_sim_se, 4), "kappa_section_free_face_per_m": round(p.kappa_free, 4),
@@ -42,17 +52,24 @@ def _write(points, folder, resolution_mm):
              "kappa_sim_per_m": round(p.kappa_sim, 4), "kappa_sim_se_per_m": round(p.kappa_sim_se, 4),
              "kappa_strings_per_m": round(p.kappa_strings, 4),
              "converged": p.converged, "iterations": p.n_iter, "seconds": round(p.seconds, 2)} for p in points]
+    d = layout.thickness if d is None else d
     doc = {"experiment": "strip of 2 chained parallel bottom strings per row (850 mm), L = 300 mm, d = 70 mm, "
-                         "Delta = 0. kappa_polygon: the paper's kappa_1 (Figure 4b), the circle through "
+                         "Delta = 0 (with a calibration: its L and thickness, each real l simulated at the calibrated "
+                         "map's l_sim, against Equation 3 with the posterior median's Delta, d). kappa_polygon: the paper's kappa_1 (Figure 4b), the circle through "
                          "consecutive string ends on the string (bottom) face; Equation 3 gives it as "
                          "2 cos(theta/2) / L*. Circles fitted to the cross-sections of the string face and of the "
                          "free (top) face over the middle 2L; the model's free face bends by (pi - theta) / L. closes: the "
                          "strip turns >= 330 deg (no self-contact in the simulation)",
-           "resolution_mm": resolution_mm, "points": rows}
+           "resolution_mm": resolution_mm, "L_mm": layout.L * 1e3, "thickness_mm": layout.thickness * 1e3,
+           "equation3": {"delta_mm": delta * 1e3, "d_mm": d * 1e3}, "points": rows}
+    if lengths is not None:
+        doc["length_map"] = {"l_real_mm": (lengths.l_real * 1e3).round(3).tolist(),
+                             "l_sim_mm": (lengths.l_sim * 1e3).round(3).tolist()}
     atomic_write_text(folder / "validate.json", json.dumps(doc, indent=2) + "\n")
     atomic_write_text(folder / "validate.csv", ",".join(_COLUMNS) + "\n" +
                       "".join(",".join(str(r[c]) for c in _COLUMNS) + "\n" for r in rows))
-    save_png(validation_figure(points), folder / "validate.png", dpi=110)
+    save_png(validation_figure(points, layout=layout, delta=delta, d=d, calibrated=lengths is not None),
+             folder / "validate.png", dpi=110)
     return rows
 
 
@@ -61,7 +78,7 @@ def run(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
-    from check.validation import validate_equation3
+    from check.validation import SpecimenLayout, validate_equation3
 
     check_out_dir(args.out)
     try:
@@ -73,9 +90,39 @@ def run(args) -> int:
     if not (0 < args.resolution_mm <= 75):
         raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
     workers = jobs(args)
-    points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers)
+    if args.thickness_mm is not None and not (0 < args.thickness_mm <= 1000):
+        raise InputError(f"--thickness-mm {args.thickness_mm:g}: must be in (0, 1000]")
+    if args.calibration is None:
+        layout = SpecimenLayout() if args.thickness_mm is None else SpecimenLayout(thickness=args.thickness_mm * MM)
+        lengths, delta, d = None, 0.0, None
+    else:
+        import numpy as np
+
+        from check.length_map import length_map
+        from design.calibration_source import load_calibration
+
+        source = load_calibration(args.calibration)
+        d = float(np.median(source.d))
+        layout = SpecimenLayout(L=source.L, thickness=d if args.thickness_mm is None else args.thickness_mm * MM)
+        if args.resolution_mm > layout.L / 4 / MM:
+            raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be <= L/4 = {layout.L / 4 / MM:g} mm")
+        lengths = length_map(source, calibrated=True, resolution=args.resolution_mm * MM,
+                             thickness=layout.thickness, workers=workers)
+        delta = source.delta_median
+    points = validate_equation3(ratios, layout=layout, resolution=args.resolution_mm * MM, seed=args.seed,
+                                workers=workers, length_map=lengths, delta=delta, d=d)
     with staged(args.out) as tmp:
-        rows = _write(points, tmp, args.resolution_mm)
+        rows = _write(points, tmp, args.resolution_mm, layout=layout, delta=delta, d=d, lengths=lengths)
+    if lengths is not None:
+        _print_calibrated(rows, delta, layout.thickness if d is None else d)
+    else:
+        _print_plain(rows)
+    print(f"wrote validate.json, validate.csv, validate.png to {args.out}")
+    return not_converged("validate", [f"inflation at l/L = {p.l_over_L:g}: {p.message}"
+                                      for p in points if not p.converged])
+
+
+def _print_plain(rows):
     print("       string face (1/m)                       free face (1/m)")
     print("l/L    κ₁ polygon  Eq. 3 (Δ=0)  section circles section circles  model (π-θ)/L   turn")
     for r in rows:
@@ -84,6 +131,14 @@ def run(args) -> int:
               f"   {r['kappa_section_free_face_per_m']:6.2f} ± {2 * r['kappa_section_free_face_se_per_m']:.2f}"
               f"  {r['kappa_eq3_free_face_per_m']:8.2f}     {r['turn_deg']:5.0f}°"
               + ("  closes (no self-contact)" if r["closes"] else ""))
-    print(f"wrote validate.json, validate.csv, validate.png to {args.out}")
-    return not_converged("validate", [f"inflation at l/L = {p.l_over_L:g}: {p.message}"
-                                      for p in points if not p.converged])
+
+
+def _print_calibrated(rows, delta, d):
+    print(f"calibrated κ₁ median: Equation 3 with Δ = {delta * 1e3:.1f} mm, d = {d * 1e3:.1f} mm; "
+          "simulated through the calibrated length map")
+    print("l/L   simulated l*/L   κ₁ simulated (1/m)   κ₁ calibrated (1/m)   difference   turn")
+    for r in rows:
+        k, k3 = r["kappa_polygon_per_m"], r["kappa_eq3_per_m"]
+        diff = f"{100 * (k / k3 - 1):+6.1f} %" if k3 > 0 else f"{k - k3:+.2f} 1/m"
+        print(f"{r['l_over_L']:.2f}  {r['l_sim_over_L']:10.3f}   {k:14.2f}   {k3:18.2f}   {diff:>12}  "
+              f"{r['turn_deg']:5.0f}°" + ("  closes (no self-contact)" if r["closes"] else ""))
