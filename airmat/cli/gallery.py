@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -52,6 +51,7 @@ def run(args) -> int:
     from airmat.cli.design import design_not_converged
     from airmat.cli.inflate import check_not_converged
     from airmat.cli.sigint import staged
+    from airmat.json_doc import dumps
     from airmat.units import MM
     from check.inflation_check import check
     from check.report import check_dict, write_check
@@ -94,6 +94,6 @@ def run(args) -> int:
         table = "\n".join([HEADER, sep] + rows)
         atomic_write_text(tmp / "gallery.md", table + "\n")
         results["timings_s"] = timings  # the one field that differs between runs of the same inputs
-        atomic_write_text(tmp / "gallery.json", json.dumps(results, indent=2) + "\n")
+        atomic_write_text(tmp / "gallery.json", dumps(results, indent=2) + "\n")
     print(f"\n{table}\n\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
     return not_converged("gallery", what)

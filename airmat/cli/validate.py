@@ -25,9 +25,8 @@ _COLUMNS = ("l_over_L", "kappa_polygon_per_m", "kappa_eq3_per_m", "kappa_section
 
 
 def _write(points, folder, resolution_mm):
-    import json
-
     from airmat.atomic import atomic_write_text
+    from airmat.json_doc import dumps
     from airmat.figures import save_png
     from check.validation import validation_figure
 
@@ -49,7 +48,7 @@ def _write(points, folder, resolution_mm):
                          "free (top) face over the middle 2L; the model's free face bends by (pi - theta) / L. closes: the "
                          "strip turns >= 330 deg (no self-contact in the simulation)",
            "resolution_mm": resolution_mm, "points": rows}
-    atomic_write_text(folder / "validate.json", json.dumps(doc, indent=2) + "\n")
+    atomic_write_text(folder / "validate.json", dumps(doc, indent=2) + "\n")
     atomic_write_text(folder / "validate.csv", ",".join(_COLUMNS) + "\n" +
                       "".join(",".join(str(r[c]) for c in _COLUMNS) + "\n" for r in rows))
     save_png(validation_figure(points), folder / "validate.png", dpi=110)
