@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from airmat import __version__
 from airmat.errors import InputError
+from airmat.json_doc import dumps, finish
 from airmat.npz_bytes import npz_bytes
 from airmat.units import M_TO_MM, MM
 from calib.likelihood import DEFAULT_PRIORS, PARAM_NAMES, Priors
@@ -61,7 +61,6 @@ def calibration_dict(cal, *, truth: dict | None = None) -> dict:
     """
     p, c = cal.posterior, cal.curve
     out = {
-        "airmat_version": __version__,
         "seed": cal.seed,
         "manifest": cal.manifest.path,
         "parameters": {"delta_mm": _summary(p.delta, M_TO_MM), "d_mm": _summary(p.d, M_TO_MM),
@@ -84,7 +83,7 @@ def calibration_dict(cal, *, truth: dict | None = None) -> dict:
     }
     if truth is not None:
         out["truth"] = truth
-    return out
+    return finish(out)
 
 
 def specimens_csv(cal) -> str:
@@ -111,8 +110,7 @@ def write_calibration(cal, folder, *, truth: dict | None = None) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     p = cal.posterior
     files = [folder / "calibration.json", folder / "posterior.npz", folder / "specimens.csv"]
-    files[0].write_text(json.dumps(calibration_dict(cal, truth=truth), indent=1,
-                                   allow_nan=False) + "\n", encoding="utf-8")
+    files[0].write_text(dumps(calibration_dict(cal, truth=truth), indent=1) + "\n", encoding="utf-8")
     files[1].write_bytes(npz_bytes(delta_m=p.samples[:, 0], d_m=p.samples[:, 1], sigma_per_m=p.samples[:, 2],
                                    log_prob=p.log_prob, L_m=np.float64(cal.curve.L), start=p.start))
     files[2].write_text(specimens_csv(cal), encoding="utf-8")

@@ -16,14 +16,13 @@ into Ŝ's frame by the named face's alignment, so it overlays ``approx_surface.p
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from airmat import __version__
 from airmat.atomic import atomic_write_bytes, atomic_write_text
 from airmat.figures import new_figure, save_png
+from airmat.json_doc import dumps, finish
 from airmat.units import M_TO_MM
 
 __all__ = ["check_dict", "deviation_figure", "write_check", "summary_text"]
@@ -47,7 +46,7 @@ def _run_dict(run) -> dict:
 def check_dict(check) -> dict:
     """The inflate.json document of a :class:`~check.inflation_check.DesignCheck`."""
     med, d = check.runs["median"], check.design
-    doc = {"airmat_version": __version__, "design": str(d.source if d.source is not None else d.name),
+    doc = {"design": str(d.source if d.source is not None else d.name),
            "resolution_mm": round(check.resolution * M_TO_MM, 3),
            "mesh_vertices": int(med.inflation.mesh.n_vertices),
            "delta_mm": round(d.calibration.delta_median * M_TO_MM, 3),
@@ -73,7 +72,7 @@ def check_dict(check) -> dict:
     doc["converged"] = bool(check.converged)
     # the one field that differs between two runs of the same inputs: wall-clock seconds per run
     doc["timings_s"] = {k: round(r.inflation.seconds, 3) for k, r in check.runs.items()}
-    return doc
+    return finish(doc)
 
 
 def deviation_figure(check):
@@ -128,7 +127,7 @@ def write_check(check, folder) -> dict:
 
     folder = Path(folder)
     doc = check_dict(check)
-    atomic_write_text(folder / "inflate.json", json.dumps(doc, indent=2) + "\n")
+    atomic_write_text(folder / "inflate.json", dumps(doc, indent=2) + "\n")
     med = check.runs["median"]
     inf = med.inflation
     mesh = trimesh.Trimesh(med.deviation.apply(inf.xyz) * M_TO_MM, inf.mesh.faces, process=False)

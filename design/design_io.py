@@ -81,15 +81,22 @@ def document(result: DesignResult) -> dict:
     return doc
 
 
-def write_design(result: DesignResult, folder) -> dict:
+def write_design(result: DesignResult, folder, *, papers: tuple = ()) -> dict:
     """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
+
+    Parameters
+    ----------
+    result : DesignResult
+    folder : str or Path
+    papers : tuple of {"A4", "A3"}, keyword-only
+        Also write ``pattern_<paper>.pdf``, the drawing tiled at 1:1 (:mod:`design.export.pdf`).
 
     Returns
     -------
     dict
         The design document (content of design.json).
     """
-    from design.export import write_3dm, write_cutting_list, write_dxf, write_preview, write_svg
+    from design.export import write_3dm, write_cutting_list, write_dxf, write_pdf, write_preview, write_svg
 
     folder = Path(folder)
     a, m = result.approx, result.approx.mattress
@@ -102,6 +109,8 @@ def write_design(result: DesignResult, folder) -> dict:
     write_cutting_list(folder / "cutting_list.csv", doc)
     write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
     write_3dm(folder / "design.3dm", doc, a.xyz, a.uv, a.faces)
+    for paper in papers:  # on request: tens of pages, seconds each on a large mattress
+        write_pdf(folder / f"pattern_{paper}.pdf", doc, paper)
     return doc
 
 

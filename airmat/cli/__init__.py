@@ -56,8 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="airmat", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"airmat {__version__}")
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("-v", "--verbose", action="count", default=0, help="debug log output")
-    common.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors, no progress bars")
+    common.add_argument("-v", "--verbose", action="count", default=0,
+                        help="log warnings and progress on stderr (-vv: debug); by default stderr holds only "
+                             "the one line of an error or of a run that did not converge")
+    common.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     common.add_argument("--seed", type=seed, default=0,
                         help="seed of every random step: an integer in [0, 2**32) (default 0)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -69,16 +71,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _configure_logging(verbose: int, quiet: bool) -> None:
-    level = logging.WARNING if quiet else (logging.INFO if verbose == 0 else logging.DEBUG)
+    """Log records of WARNING and above still reach the loggers' other handlers (tests' caplog);
+    stderr shows them only at ``-v``: by default the one error or "not converged" line stands alone,
+    and what the warnings said is in that line and in the results' JSON (``converged``, ``message``)."""
+    level = logging.WARNING if verbose == 0 else (logging.INFO if verbose == 1 else logging.DEBUG)
     handler = logging.StreamHandler(sys.stderr)
+    handler.setLevel(logging.CRITICAL + 1 if verbose == 0 else level)
     handler.setFormatter(logging.Formatter("%(levelname)s: %(message)s" if verbose < 2
                                            else "%(levelname)s %(name)s: %(message)s"))
     root = logging.getLogger()
-    root.handlers[:] = [handler]
+    root.handlers[:] = [h for h in root.handlers if not _is_ours(h)] + [handler]
+    handler._airmat_cli = True
     root.setLevel(level)
     # third-party chatter stays at warnings
     for noisy in ("matplotlib", "PIL", "trimesh", "numba", "fontTools", "ezdxf"):
         logging.getLogger(noisy).setLevel(logging.WARNING)
+
+
+def _is_ours(handler) -> bool:
+    return getattr(handler, "_airmat_cli", False)
 
 
 def main(argv: list[str] | None = None) -> int:

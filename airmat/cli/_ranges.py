@@ -10,6 +10,10 @@ option              range            why
 ``--d-mm``          [10, 500] mm     the same thickness, in ``synth``
 ``--pressure-pa``   (0, 1e5] Pa      drop-stitch panels hold at most ~1 bar
 ``--L-mm``          [50, 2000] mm    string-end spacing (paper 300 mm)
+``--resolution-mm`` (0, 75] mm       ``demo``/``gallery``: L/4 for the paper's L = 300 mm;
+                                     finer than the inflation mesh limit of the
+                                     mattress is refused too (:func:`check_resolution`)
+``--points``        [1000, 1e7]      points per synthetic scan (``synth``, ``demo``)
 ==================  ===============  ==========================================
 """
 
@@ -19,7 +23,7 @@ import math
 
 from airmat.errors import InputError
 
-__all__ = ["RANGES", "check_range"]
+__all__ = ["RANGES", "check_range", "check_resolution"]
 
 #: option -> (low, high, low included, unit)
 RANGES = {
@@ -27,6 +31,8 @@ RANGES = {
     "--d-mm": (10.0, 500.0, True, "mm"),
     "--pressure-pa": (0.0, 1e5, False, "Pa"),
     "--L-mm": (50.0, 2000.0, True, "mm"),
+    "--resolution-mm": (0.0, 75.0, False, "mm"),
+    "--points": (1000, 10_000_000, True, "points"),
 }
 
 
@@ -48,3 +54,23 @@ def check_range(option: str, value) -> None:
     if not ok:
         raise InputError(f"{option}: {value:g} {unit} is outside {'[' if lo_in else '('}{lo:g}, {hi:g}] {unit}",
                          option=option, value=value)
+
+
+def check_resolution(resolution_mm: float, mattresses) -> None:
+    """``--resolution-mm`` of an inflation check, refused before any step runs (``demo``, ``gallery``).
+
+    In its range, and not so fine that the double-layer mesh of one of
+    ``mattresses`` (objects with ``width``, ``height`` in m) would exceed the
+    solver's limit (:data:`inflation.mesh.MAX_VERTICES`), which the inflation
+    itself would only find out after the synthesis, calibration and design.
+    """
+    from inflation.mesh import MAX_VERTICES, grid_shape
+
+    check_range("--resolution-mm", resolution_mm)
+    for m in mattresses:
+        nx, ny = grid_shape(m.width, m.height, resolution_mm * 1e-3)
+        n_est = 2 * nx * ny + 2 * (nx + ny - 2)  # both faces and the rim, as build_mattress_mesh counts them
+        if n_est > MAX_VERTICES:
+            raise InputError(f"--resolution-mm: {resolution_mm:g} mm is too fine for the {m.width * 1e3:.0f} x "
+                             f"{m.height * 1e3:.0f} mm mattress: {n_est} mesh vertices, limit {MAX_VERTICES}",
+                             option="--resolution-mm", value=resolution_mm)

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._ranges import check_range, check_resolution
 from airmat.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -97,14 +98,16 @@ def run(args) -> int:
     from design.presets import preset
     from report.page import write_report
 
-    # every option is checked before the first step runs
+    # every option is checked before the first step runs: --out, --preset, --points, --resolution-mm,
+    # --jobs (--seed, -v, -q by the parser)
     check_out_dir(args.out)
-    if not (args.resolution_mm > 0):
-        raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
-    if args.points < 1000:
-        raise InputError(f"--points must be at least 1000, got {args.points}")
+    try:
+        target, mattress = preset(args.preset)
+    except InputError as err:
+        raise InputError(f"--preset: {err.message}") from None
+    check_range("--points", args.points)
+    check_resolution(args.resolution_mm, [mattress])
     workers = jobs(args)
-    target, mattress = preset(args.preset)
     out = Path(args.out)
     seconds = {}
     with staged(out) as tmp:

@@ -54,6 +54,9 @@ def add_parser(sub, parents):
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
+    p.add_argument("--paper", action="append", choices=("A4", "A3"), default=None,
+                   help="also write pattern_A4.pdf / pattern_A3.pdf: the 1:1 drawing tiled over pages of that "
+                        "size, with crop marks, page numbers and a 20 mm overlap (repeat for both)")
     p.set_defaults(func=run)
 
 
@@ -180,7 +183,7 @@ def run(args) -> int:
         result = refinement.design
         failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:
-        doc = write_design(result, tmp)
+        doc = write_design(result, tmp, papers=tuple(dict.fromkeys(args.paper or ())))
         write_report(tmp, design=result, title=f"airmat design: {result.name}")
     print(summary_text(doc, args.out))
     return not_converged("design", failed)

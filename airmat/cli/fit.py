@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 
@@ -22,6 +21,9 @@ def add_parser(sub, parents):
     add_scan_options(p)
     p.add_argument("--noise-mm", type=float, default=None,
                    help="scanner noise (standard deviation, mm); estimated from the scan when omitted")
+    p.add_argument("--json", action="store_true",
+                   help="for scripts: a refused fit also prints its error as one JSON object on stdout "
+                        "({error: {type, message, path, exit_code}}; exit code and stderr line unchanged)")
     p.set_defaults(func=run)
 
 
@@ -36,6 +38,36 @@ def add_scan_options(p, *, index=True):
 
 
 def run(args) -> int:
+    from airmat.errors import AirmatError
+
+    try:
+        return _fit(args)
+    except AirmatError as err:
+        if args.json:
+            _print_json(error_to_json(err, args.scan))
+        raise
+
+
+def error_to_json(err, scan: str) -> dict:
+    """The JSON record of a refused fit (schemas/fit.schema.json): the error and the exit code it gives."""
+    from airmat.cli._exit import BAD_INPUT, FAILED
+    from airmat.errors import InputError
+    from airmat.json_doc import finish
+
+    return finish({"scan": str(scan), "converged": False,
+                   "error": {"type": type(err).__name__, "message": " ".join(str(err.message).split()),
+                             "path": err.path,
+                             "exit_code": BAD_INPUT if isinstance(err, InputError) else FAILED}})
+
+
+def _print_json(doc: dict) -> None:
+    from airmat.json_doc import dumps
+
+    sys.stdout.write(dumps(doc, indent=2) + "\n")
+    sys.stdout.flush()
+
+
+def _fit(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import check
     from airmat.errors import InputError
@@ -52,18 +84,18 @@ def run(args) -> int:
     except InputError as err:
         raise err.with_path(scan.path)
     check()
-    json.dump(fit_to_json(fit, scan), sys.stdout, indent=2)
-    sys.stdout.write("\n")
-    sys.stdout.flush()
+    _print_json(fit_to_json(fit, scan))
     return not_converged("fit", [] if fit.converged else [f"{scan.path}: cylinder fit: {fit.message}"])
 
 
 def fit_to_json(fit, scan) -> dict:
-    """The JSON record of a fit: millimetres and 1/m, unit-suffixed names."""
-    def mm(x):
-        return None if not math.isfinite(x) else round(float(x) * M_TO_MM, 6)
+    """The JSON record of a fit (schemas/fit.schema.json): millimetres and 1/m, unit-suffixed names."""
+    from airmat.json_doc import finish
 
-    return {
+    def mm(x):
+        return x if not math.isfinite(x) else round(float(x) * M_TO_MM, 6)
+
+    return finish({
         "scan": scan.path,
         "kind": scan.kind,
         "radius_mm": mm(fit.radius),
@@ -88,4 +120,10 @@ def fit_to_json(fit, scan) -> dict:
         "message": fit.message,
         "n_seeds": int(fit.n_seeds),
         "kappa_spread_per_m": float(fit.kappa_spread),
-    }
+    }, reasons=_REASONS)
+
+
+_REASONS = {"radius_mm": "no curvature measured (a flat specimen): the radius is infinite",
+            "center_mm": "no curvature measured (a flat specimen): the axis is at infinity",
+            "kappa_se_per_m": "the standard error could not be estimated",
+            "kappa_se_iid_per_m": "the standard error could not be estimated"}

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._ranges import check_resolution
 from airmat.errors import InputError
 
 # design.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
@@ -52,6 +52,7 @@ def run(args) -> int:
     from airmat.cli.design import design_not_converged
     from airmat.cli.inflate import check_not_converged
     from airmat.cli.sigint import staged
+    from airmat.json_doc import dumps
     from airmat.units import MM
     from check.inflation_check import check
     from check.report import check_dict, write_check
@@ -60,21 +61,23 @@ def run(args) -> int:
     from design.pipeline import design
     from design.presets import preset
 
+    # every option is checked before the first preset runs: --out, --presets, --resolution-mm, --jobs,
+    # --calibration (--seed, -v, -q by the parser)
     check_out_dir(args.out, inputs=[args.calibration])
     names = [n.strip() for n in args.presets.split(",") if n.strip()]
     unknown = sorted(set(names) - set(PRESETS))
     if unknown or not names:
         raise InputError(f"--presets: unknown preset(s) {', '.join(unknown) or '(none given)'}; "
                          f"choose from {', '.join(PRESETS)}")
-    if not (args.resolution_mm > 0):
-        raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
+    chosen = {name: preset(name) for name in names}
+    check_resolution(args.resolution_mm, [mattress for _, mattress in chosen.values()])
     workers = jobs(args)
     calibration = load_calibration(args.calibration) if args.calibration else None
     out = Path(args.out)
     rows, results, timings, what = [], {}, {}, []
     with staged(out) as tmp:
         for name in names:
-            target, mattress = preset(name)
+            target, mattress = chosen[name]
             t = time.perf_counter()
             result = design(target, mattress, calibration=calibration, seed=args.seed, progress=False)
             result = dataclasses.replace(result, source=str(out / name / "design"))
@@ -94,6 +97,6 @@ def run(args) -> int:
         table = "\n".join([HEADER, sep] + rows)
         atomic_write_text(tmp / "gallery.md", table + "\n")
         results["timings_s"] = timings  # the one field that differs between runs of the same inputs
-        atomic_write_text(tmp / "gallery.json", json.dumps(results, indent=2) + "\n")
+        atomic_write_text(tmp / "gallery.json", dumps(results, indent=2) + "\n")
     print(f"\n{table}\n\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
     return not_converged("gallery", what)

@@ -35,13 +35,13 @@ _COLUMNS = ("l_over_L", "l_sim_over_L", "kappa_polygon_per_m", "kappa_eq3_per_m"
 
 
 def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=None):
-    import json
-
     from airmat.atomic import atomic_write_text
+    from airmat.json_doc import dumps
     from airmat.figures import save_png
     from check.validation import validation_figure
 
-    rows = [{"l_over_L": p.l_over_L, "l_sim_over_L": round(p.l_sim_over_L, 5), "kappa_polygon_per_m": round(p.kappa_strings, 4),
+    rows = [{"l_over_L": p.l_over_L, "l_sim_over_L": round(p.l_sim_over_L, 5),
+             "kappa_polygon_per_m": round(p.kappa_strings, 4),
              "kappa_eq3_per_m": round(p.kappa_eq3, 4),
              "kappa_section_string_face_per_m": round(p.kappa_sim, 4), "kappa_section_string_face_se_per_m":
              round(p.kappa_sim_se, 4), "kappa_section_free_face_per_m": round(p.kappa_free, 4),
@@ -51,21 +51,25 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
              # the names of earlier versions (kappa_sim: the cross-section circles of the string face)
              "kappa_sim_per_m": round(p.kappa_sim, 4), "kappa_sim_se_per_m": round(p.kappa_sim_se, 4),
              "kappa_strings_per_m": round(p.kappa_strings, 4),
-             "converged": p.converged, "iterations": p.n_iter, "seconds": round(p.seconds, 2)} for p in points]
+             "converged": p.converged, "iterations": p.n_iter} for p in points]
     d = layout.thickness if d is None else d
     doc = {"experiment": "strip of 2 chained parallel bottom strings per row (850 mm), L = 300 mm, d = 70 mm, "
                          "Delta = 0 (with a calibration: its L and thickness, each real l simulated at the calibrated "
-                         "map's l_sim, against Equation 3 with the posterior median's Delta, d). kappa_polygon: the paper's kappa_1 (Figure 4b), the circle through "
-                         "consecutive string ends on the string (bottom) face; Equation 3 gives it as "
-                         "2 cos(theta/2) / L*. Circles fitted to the cross-sections of the string face and of the "
-                         "free (top) face over the middle 2L; the model's free face bends by (pi - theta) / L. closes: the "
-                         "strip turns >= 330 deg (no self-contact in the simulation)",
+                         "map's l_sim, against Equation 3 with the posterior median's Delta, d). kappa_polygon: the "
+                         "paper's kappa_1 (Figure 4b), the circle through consecutive string ends on the string "
+                         "(bottom) face; Equation 3 gives it as 2 cos(theta/2) / L*. Circles fitted to the "
+                         "cross-sections of the string face and of the free (top) face over the middle 2L; the "
+                         "model's free face bends by (pi - theta) / L. closes: the strip turns >= 330 deg (no "
+                         "self-contact in the simulation)",
            "resolution_mm": resolution_mm, "L_mm": layout.L * 1e3, "thickness_mm": layout.thickness * 1e3,
-           "equation3": {"delta_mm": delta * 1e3, "d_mm": d * 1e3}, "points": rows}
+           "equation3": {"delta_mm": delta * 1e3, "d_mm": d * 1e3}, "points": rows,
+           "converged": all(p.converged for p in points),
+           # the one field that differs between two runs of the same inputs: wall-clock seconds per ratio
+           "timings_s": {f"{p.l_over_L:g}": round(p.seconds, 2) for p in points}}
     if lengths is not None:
         doc["length_map"] = {"l_real_mm": (lengths.l_real * 1e3).round(3).tolist(),
                              "l_sim_mm": (lengths.l_sim * 1e3).round(3).tolist()}
-    atomic_write_text(folder / "validate.json", json.dumps(doc, indent=2) + "\n")
+    atomic_write_text(folder / "validate.json", dumps(doc, indent=2) + "\n")
     atomic_write_text(folder / "validate.csv", ",".join(_COLUMNS) + "\n" +
                       "".join(",".join(str(r[c]) for c in _COLUMNS) + "\n" for r in rows))
     save_png(validation_figure(points, layout=layout, delta=delta, d=d, calibrated=lengths is not None),

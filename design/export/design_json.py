@@ -2,7 +2,7 @@
 
 Layout (all lengths in mm on Ω = [0, W] × [0, H], top face seen from above)::
 
-    airmat_version, name, seed, uncalibrated
+    schema_version, airmat_version, name, seed, uncalibrated   (schemas/design.schema.json)
     mattress      {width_mm, height_mm, thickness_mm}
     calibration   {source, uncalibrated, label, L_mm, delta_mm {median, lo95, hi95}, d_mm {...}, n_samples}
     parameters    {L_mm, mu1_mm, mu2_mm, margin_mm, ...}        (what was used)
@@ -25,9 +25,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from airmat import __version__
 from airmat.atomic import atomic_write_text
 from airmat.errors import InputError
+from airmat.json_doc import finish
 from airmat.units import M_TO_MM
 
 __all__ = ["design_document", "write_design_json", "read_design_json", "FACES"]
@@ -82,8 +82,7 @@ def design_document(pattern, *, mattress, calibration, report: dict, parameters:
     """
     cal = calibration.summary_mm()
     strings = {face: {fam: pattern.count(face, fam) for fam in ("k1", "k2")} for face in FACES}
-    return {
-        "airmat_version": __version__,
+    return finish({
         "name": str(name),
         "seed": int(seed),
         "uncalibrated": bool(calibration.uncalibrated),
@@ -96,7 +95,7 @@ def design_document(pattern, *, mattress, calibration, report: dict, parameters:
                     "no_string": dict(pattern.n_no_string), "notes": list(pattern.notes),
                     "tie_grid": pattern.tie_grid.summary_mm() if pattern.tie_grid is not None else None},
         "dashes": [_dash_entry(s) for s in pattern.strings],
-    }
+    })
 
 
 def write_design_json(path, doc: dict) -> None:

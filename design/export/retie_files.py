@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from pathlib import Path
 
-from airmat import __version__
 from airmat.atomic import atomic_write_text
 from airmat.figures import new_figure, save_png
+from airmat.json_doc import dumps, finish
 from airmat.units import M_TO_MM
 
 __all__ = ["retie_document", "retie_figure", "write_retie", "CSV_COLUMNS"]
@@ -41,8 +40,8 @@ def _row(step) -> dict:
 
 def retie_document(plan, *, design_a: str, design_b: str) -> dict:
     """The retie.json content: counts and one entry per string (mm); null where a field does not apply."""
-    return {"airmat_version": __version__, "design_a": design_a, "design_b": design_b,
-            "counts": plan.counts, "steps": [_row(s) for s in plan.steps]}
+    return finish({"design_a": design_a, "design_b": design_b,
+                   "counts": plan.counts, "steps": [_row(s) for s in plan.steps]})
 
 
 def retie_figure(plan, *, width: float, height: float):
@@ -83,7 +82,7 @@ def write_retie(folder, plan, *, design_a: str, design_b: str, width: float, hei
     """Write retie.json, retie.csv and retie.png into ``folder``; return the JSON document."""
     folder = Path(folder)
     doc = retie_document(plan, design_a=design_a, design_b=design_b)
-    atomic_write_text(folder / "retie.json", json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    atomic_write_text(folder / "retie.json", dumps(doc, indent=1) + "\n")
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_COLUMNS)

@@ -3,8 +3,10 @@
 Layers (full paths; ``FACE/FAMILY`` is ``top/k1``, ``top/k2``, ``bottom/k1``, ``bottom/k2``)::
 
     S_hat                     Ŝ as a mesh, in the target's frame
-    S_hat::FACE/FAMILY        each string as a 3D polyline on Ŝ (its Ω polyline lifted through Ŝ's Ω coordinates)
-    S_hat::ties               the tie points on Ŝ
+    S_hat::FACE/FAMILY        each string as a 3D polyline on the face it is tied on (its Ω polyline lifted
+                              through Ŝ's Ω coordinates, then offset by half the thickness along Ŝ's top
+                              normal: + for top strings, - for bottom ones)
+    S_hat::ties               the tie points, on their face likewise
     omega                     the mattress outline on Ω = [0, W] × [0, H] (z = 0; the cutting list's coordinates)
     omega::FACE/FAMILY        each string as a flat polyline on Ω (top face seen from above, as in design.json)
     omega::ties               the tie points on Ω
@@ -13,7 +15,8 @@ Layers (full paths; ``FACE/FAMILY`` is ``top/k1``, ``top/k2``, ``bottom/k1``, ``
 
 Every string curve is named by its id and carries the user text of :data:`STRING_KEYS`
 (lengths in mm, κ in 1/m, face, family, and the grid nodes of its ends when the
-design has them). The lifted polylines lie on Ŝ, the mattress's mid-surface.
+design has them). Ŝ is the mattress's mid-surface; the lifted polylines and tie points lie
+on the face their string is tied on, Ŝ ± t/2 n (:func:`lift_to_face`).
 rhino3dm adds mesh vertices one by one (it has no bulk setter); the file is
 written to a temporary file and published with :mod:`airmat.atomic`.
 
@@ -34,7 +37,7 @@ from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
 
-__all__ = ["lift_to_surface", "rhino_model", "write_3dm", "STRING_KEYS", "FACE_FAMILIES"]
+__all__ = ["lift_to_surface", "lift_to_face", "rhino_model", "write_3dm", "STRING_KEYS", "FACE_FAMILIES"]
 
 FACE_FAMILIES = ("top/k1", "top/k2", "bottom/k1", "bottom/k2")
 #: user text of every string curve
@@ -157,6 +160,47 @@ def string_text(dash: dict) -> dict:
             "l_median_mm": f"{l['median']:.2f}", "l_lo95_mm": f"{l['lo95']:.2f}", "l_hi95_mm": f"{l['hi95']:.2f}",
             "kappa_per_m": f"{dash['kappa_per_m']:.4f}", "L_mm": f"{dash['L_mm']:.2f}",
             "a_node": _node(dash, "a"), "b_node": _node(dash, "b")}
+def lift_to_face(points_uv: np.ndarray, sign: np.ndarray, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray,
+                 thickness: float) -> np.ndarray:
+    """Points of Ω carried onto a face of the mattress: Ŝ offset by ``sign · thickness / 2`` along its top normal.
+
+    Parameters
+    ----------
+    points_uv : ndarray of shape (k, 2)
+        Points on Ω (the length unit of ``uv``).
+    sign : ndarray of shape (k,)
+        +1 for a point on the top face, -1 on the bottom face (0: on Ŝ).
+    xyz, uv, faces
+        Ŝ, as in :func:`lift_to_surface`.
+    thickness : float
+        The mattress thickness (the length unit of ``xyz``).
+
+    Returns
+    -------
+    ndarray of shape (k, 3)
+        The top normal (+z of Ω, carried by the triangles' orientation on Ω) is
+        interpolated from Ŝ's area-weighted vertex normals and renormalized.
+
+    Examples
+    --------
+    >>> uv = np.array([[0., 0.], [1., 0.], [0., 1.]])
+    >>> xyz = np.column_stack([uv, np.zeros(3)])
+    >>> lift_to_face(np.array([[0.2, 0.2], [0.2, 0.2]]), np.array([1, -1]), xyz, uv,
+    ...              np.array([[0, 1, 2]]), 0.1).round(3).tolist()
+    [[0.2, 0.2, 0.05], [0.2, 0.2, -0.05]]
+    """
+    from design.curvature import vertex_normals
+
+    sign = np.asarray(sign, float).reshape(-1)
+    base = lift_to_surface(points_uv, xyz, uv, faces)
+    if len(sign) != len(base):
+        raise ValueError(f"sign must have one value per point ({len(base)}), got {len(sign)}")
+    e1, e2 = uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]
+    ccw = np.sum(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) >= 0      # winding of Ω's triangles seen from +z
+    normals = vertex_normals(xyz, faces) * (1.0 if ccw else -1.0)
+    n = lift_to_surface(points_uv, normals, uv, faces)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return base + (0.5 * thickness * sign)[:, None] * n
 
 
 def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *, shapes: dict | None = None):
@@ -201,7 +245,9 @@ def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *
     polys = [np.asarray(d["polyline_mm"], float) for d in dashes]
     counts = np.array([len(p) for p in polys], int)
     if dashes:
-        up = lift_to_surface(np.concatenate(polys) / M_TO_MM, xyz, uv, faces) * M_TO_MM
+        sign = np.repeat([1.0 if d["side"] == "top" else -1.0 for d in dashes], counts)
+        up = lift_to_face(np.concatenate(polys) / M_TO_MM, sign, xyz, uv, faces,
+                          doc["mattress"]["thickness_mm"] / M_TO_MM) * M_TO_MM
         up_parts = np.split(up, np.cumsum(counts)[:-1])
     for dash, poly, poly3 in zip(dashes, polys, up_parts if dashes else ()):
         key = f"{dash['side']}/{dash['family']}"

@@ -9,6 +9,11 @@ tie points and its id and length to cut (``k1-003-02  l=212.4``) beside it,
 along the string and offset from it; k1 and k2 have different colours. A
 100 mm scale bar in the caption band checks the print is 1:1. Every label
 stays on the page: the origin labels run inward from the faces' outer corners.
+The grid node each end is tied to (``R12C3``: row 12, column 3 of the tie grid)
+is printed beside its end, on the other side of the string from the id, running
+inward along the string (:func:`node_label_places`), so it covers neither its
+string nor a neighbour chained to the same node. ``pattern_A4.pdf`` /
+``pattern_A3.pdf`` tile this drawing over printer pages (:mod:`design.export.pdf`).
 """
 
 from __future__ import annotations
@@ -18,11 +23,13 @@ import xml.etree.ElementTree as ET
 
 from airmat.atomic import atomic_write_bytes
 
-__all__ = ["write_svg", "svg_transform", "LAYOUT"]
+__all__ = ["write_svg", "svg_transform", "node_label_places", "page_size", "LAYOUT", "NODE_FONT"]
 
 #: page layout (mm): outer padding, gap between the faces, title and caption bands, text sizes
 LAYOUT = {"pad": 20.0, "gap": 80.0, "title": 40.0, "caption": 56.0, "font": 8.0, "title_font": 14.0}
 SCALE_BAR_MM = 100.0
+#: size of the node labels, in font sizes of LAYOUT["font"]
+NODE_FONT = 0.75
 COLOURS = {"k1": "#c0392b", "k2": "#1f5fa8"}
 _NS = "http://www.w3.org/2000/svg"
 
@@ -43,6 +50,43 @@ def svg_transform(face: str, u_mm, v_mm, width_mm: float, height_mm: float):
     if face == "top":
         return pad + u_mm, y
     return pad + width_mm + LAYOUT["gap"] + (width_mm - u_mm), y
+
+
+def page_size(doc: dict) -> tuple:
+    """Width and height (mm) of the drawing of a design document."""
+    W, H = doc["mattress"]["width_mm"], doc["mattress"]["height_mm"]
+    L = LAYOUT
+    return 2 * W + L["gap"] + 2 * L["pad"], H + L["title"] + L["caption"] + L["pad"]
+
+
+def node_label_places(dash: dict, pts) -> list:
+    """Where the tie-node labels of a string go: ``[(x, y, angle_deg, anchor, text)]`` in page mm.
+
+    Each label runs along the string from 3 mm inside its end, on the side
+    opposite the id label, its baseline ``0.6 + 0.75`` font sizes off the line
+    (the text's height towards the line stays clear of it). ``anchor`` is
+    ``"start"``/``"end"`` so that the text extends inward. Free ends (no tie
+    grid) get no label.
+    """
+    (x0, y0), (x1, y1) = pts[0], pts[-1]
+    length = math.hypot(x1 - x0, y1 - y0)
+    if length == 0:
+        return []
+    dx, dy = (x1 - x0) / length, (y1 - y0) / length
+    _, _, angle = _label_place([pts[0], pts[-1]])
+    a = math.radians(angle)
+    tx, ty = math.cos(a), math.sin(a)                    # the text's direction on the page
+    off = (0.6 + NODE_FONT) * LAYOUT["font"]
+    nx, ny = -math.sin(a) * off, math.cos(a) * off        # down on the page: opposite the id label
+    out = []
+    for end, (px, py), inward in (("a", pts[0], 1.0), ("b", pts[-1], -1.0)):
+        node = dash.get(f"{end}_node")
+        if not node:
+            continue
+        along = inward * (dx * tx + dy * ty) > 0
+        out.append((px + inward * 3 * dx + nx, py + inward * 3 * dy + ny, angle, "start" if along else "end",
+                    f"R{node['row']}C{node['col']}"))
+    return out
 
 
 def _fmt(x: float) -> str:
@@ -88,6 +132,11 @@ def _face(svg, doc, face):
         x, y, angle = _label_place(pts)
         el = _text(dg, x, y, f"{dash['id']}  l={dash['l_mm']['median']:.1f}", LAYOUT["font"], anchor="middle")
         el.set("transform", f"rotate({angle:.2f} {_fmt(x)} {_fmt(y)})")
+        for nx_, ny_, ang, anchor, text in node_label_places(dash, pts):
+            el = _text(dg, nx_, ny_, text, NODE_FONT * LAYOUT["font"], anchor=anchor)
+            el.set("class", "node")
+            el.set("fill", "#404040")
+            el.set("transform", f"rotate({ang:.2f} {_fmt(nx_)} {_fmt(ny_)})")
 
 
 def _label_place(pts):
@@ -124,8 +173,7 @@ def write_svg(path, doc: dict) -> None:
     """
     W, H = doc["mattress"]["width_mm"], doc["mattress"]["height_mm"]
     L = LAYOUT
-    page_w = 2 * W + L["gap"] + 2 * L["pad"]
-    page_h = H + L["title"] + L["caption"] + L["pad"]
+    page_w, page_h = page_size(doc)
     ET.register_namespace("", _NS)
     svg = ET.Element("svg", {"xmlns": _NS, "version": "1.1", "width": f"{_fmt(page_w)}mm",
                              "height": f"{_fmt(page_h)}mm", "viewBox": f"0 0 {_fmt(page_w)} {_fmt(page_h)}"})

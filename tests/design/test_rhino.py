@@ -64,16 +64,29 @@ def test_user_text_matches_design_json(design_3dm):
     assert (start.X, start.Y, start.Z) == pytest.approx((*dash["polyline_mm"][0], 0.0), abs=1e-6)
 
 
-def test_lifted_strings_lie_on_the_cylinder(design_3dm):
+def test_lifted_strings_and_ties_lie_on_their_face(design_3dm):
     doc, _, model = design_3dm
-    radius_mm = 400.0
+    radius_mm, half = 400.0, doc["mattress"]["thickness_mm"] / 2
+    # Ŝ is the cylinder x² + (z + R)² = R² (the mid-surface), its top normal pointing away from the axis:
+    # the top face is the cylinder of radius R + t/2, the bottom face R - t/2
+    face_radius = {"top": radius_mm + half, "bottom": radius_mm - half}
     objs = _by_layer(model)
+    seen = set()
     for ff in FACE_FAMILIES:
+        face = ff.split("/")[0]
         for o in objs.get(f"S_hat::{ff}", []):
-            for p in (o.Geometry.PointAtStart, o.Geometry.PointAtEnd):
-                # on the cylinder x² + (z + R)² = R², up to the chord error of 50 mm facets
-                r = np.hypot(p.X, p.Z + radius_mm)
-                assert r == pytest.approx(radius_mm, rel=5e-3)
+            seen.add(face)
+            pts = [o.Geometry.Point(i) for i in range(o.Geometry.PointCount)]
+            r = np.array([np.hypot(p.X, p.Z + radius_mm) for p in pts])
+            # up to the chord error of 50 mm facets (0.8 mm at R = 400 mm)
+            np.testing.assert_allclose(r, face_radius[face], atol=1.0)
+    assert seen == {"top", "bottom"}                    # the saddle has strings on both faces
+    sides = {d["id"]: d["side"] for d in doc["dashes"]}
+    ties = objs["S_hat::ties"]
+    for o in ties:
+        p = o.Geometry.Location
+        face = sides[o.Attributes.GetUserString("id")]
+        assert np.hypot(p.X, p.Z + radius_mm) == pytest.approx(face_radius[face], abs=1.0)
 
 
 def test_lift_to_surface_is_exact_on_vertices_and_linear_inside():
