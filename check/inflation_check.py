@@ -10,7 +10,8 @@ the face opposite the larger share of bending |κ| × span, the face that keeps 
 does), with the other faces for reference. SI units.
 
 The three runs are independent, so ``workers > 1`` runs them in that many
-processes (:func:`~inflation.simulate.inflate_many`).
+Dask worker processes, or ``scheduler`` on an existing cluster
+(:func:`~inflation.simulate.inflate_many`, :mod:`inflation.executor`).
 """
 
 from __future__ import annotations
@@ -116,7 +117,8 @@ class DesignCheck:
 
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
-          strict: bool = False, workers: int = 1, surface: str = "auto") -> DesignCheck:
+          strict: bool = False, workers: int = 1, scheduler: str | None = None,
+          surface: str = "auto") -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -133,7 +135,9 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     strict : bool
         Raise ConvergenceError when a run does not converge.
     workers : int
-        Processes for the runs (1: one after the other, in this process).
+        Local worker processes for the runs (1: one after the other, in this process).
+    scheduler : str, optional
+        Address of an existing Dask scheduler for the runs (:mod:`inflation.executor`).
     surface : {"auto", "top", "bottom", "mid"}
         The face compared with Ŝ; ``"auto"``: the length-keeping face
         (:func:`~check.compare.length_keeping_face`).
@@ -153,7 +157,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     string_sets = [design_strings(design, which) for which in which_runs]
     check_resolution(string_sets[0], resolution)
     inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
-                              strict=strict, workers=workers)
+                              strict=strict, workers=workers, scheduler=scheduler)
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
     # each string's share of the bending: the string face shortens by about |kappa| d per unit length

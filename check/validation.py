@@ -192,7 +192,7 @@ def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, 
 
 def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: SpecimenLayout = SpecimenLayout(),
                        resolution: float = 0.04, params: Parameters = Parameters(), seed: int = 0,
-                       workers: int = 1):
+                       workers: int = 1, scheduler: str | None = None):
     """Simulate the specimen for each l/L and measure its curvature.
 
     Parameters
@@ -207,6 +207,8 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         Unused (no random step: the section circles are fitted by least squares); kept for the CLI.
     workers : int
         Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
+    scheduler : str, optional
+        Address of an existing Dask scheduler for the inflations.
 
     Returns
     -------
@@ -214,7 +216,8 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
     """
     mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
     inflations = inflate_many(mesh, [specimen_strings(layout, float(r) * layout.L) for r in ratios],
-                              params=params, workers=workers, desc="validate")
+                              params=params, workers=workers, scheduler=scheduler,
+                              desc="validate")
     points = []
     for r, inf in zip(ratios, inflations):
         l = float(r) * layout.L

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_range
 from airmat.errors import InputError
 
@@ -46,7 +46,7 @@ def run(args) -> int:
     workers = jobs(args)
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
-                   workers=workers)
+                   workers=workers, scheduler=scheduler(args))
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
         write_report(tmp, check=result, title=f"airmat inflate: {design.name}")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.errors import InputError
 
 
@@ -73,7 +73,8 @@ def run(args) -> int:
     if not (0 < args.resolution_mm <= 75):
         raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
     workers = jobs(args)
-    points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers)
+    points = validate_equation3(ratios, resolution=args.resolution_mm * MM, seed=args.seed, workers=workers,
+                                scheduler=scheduler(args))
     with staged(args.out) as tmp:
         rows = _write(points, tmp, args.resolution_mm)
     print("       string face (1/m)                       free face (1/m)")
