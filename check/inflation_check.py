@@ -17,12 +17,13 @@ Dask worker processes, or ``scheduler`` on an existing cluster
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from check.compare import SURFACES, Deviation, deviation, length_keeping_face, realized_curvature
 from check.length_map import length_map
+from check.monte_carlo import draw, summarize
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
@@ -103,12 +104,15 @@ class DesignCheck:
     surface : str
         The face Ŝ stands for, on which each run's ``deviation`` and ``kappa_realized``
         are measured (``"top"``, ``"bottom"`` or ``"mid"``).
+    monte_carlo : check.monte_carlo.MonteCarloResult or None
+        The Monte-Carlo samples' deviations on the same face, when asked for.
     """
 
     design: object
     resolution: float
     runs: dict
     surface: str = "mid"
+    monte_carlo: object = None
 
     @property
     def converged(self) -> bool:
@@ -118,7 +122,8 @@ class DesignCheck:
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
           strict: bool = False, workers: int = 1, scheduler: str | None = None,
-          surface: str = "auto") -> DesignCheck:
+          surface: str = "auto", samples: int = 0, seed: int = 0,
+          tolerance: float | None = None) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -141,6 +146,13 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     surface : {"auto", "top", "bottom", "mid"}
         The face compared with Ŝ; ``"auto"``: the length-keeping face
         (:func:`~check.compare.length_keeping_face`).
+    samples : int
+        Monte-Carlo samples K of the strings' lengths (:func:`check.monte_carlo.draw`), inflated
+        with the median / lo95 / hi95 runs in one batch; 0: none.
+    seed : int
+        Seed of the Monte-Carlo samples.
+    tolerance : float, optional
+        T (m) of the Monte-Carlo's P(RMS <= T).
 
     Returns
     -------
@@ -156,8 +168,11 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     which_runs = LENGTH_KEYS if envelope else ("median",)
     string_sets = [design_strings(design, which) for which in which_runs]
     check_resolution(string_sets[0], resolution)
-    inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
+    draws = draw(design, samples, seed) if samples > 0 else None
+    mc_sets = [replace(string_sets[0], rest=rest) for rest in draws.rest] if draws is not None else []
+    inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets + mc_sets], params=params,
                               strict=strict, workers=workers, scheduler=scheduler)
+    inflations, mc_runs = inflations[:len(which_runs)], inflations[len(which_runs):]
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
     # each string's share of the bending: the string face shortens by about |kappa| d per unit length
@@ -176,4 +191,14 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                  "(mid-surface RMS %.1f mm)", which, inf.n_iter, inf.seconds, named, dev.rms * 1e3,
                  dev.max * 1e3, devs["mid"].rms * 1e3)
         runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free)
-    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named)
+    mc = None
+    if draws is not None:
+        devs = [deviation(inf, design.approx.xyz, design.approx.uv, named) for inf in mc_runs]
+        if not all(inf.converged for inf in mc_runs):
+            log.warning("%d of %d Monte-Carlo runs did not converge", sum(not i.converged for i in mc_runs), samples)
+        mc = summarize(draws, devs, tolerance=tolerance, converged=[inf.converged for inf in mc_runs],
+                       seconds=sum(inf.seconds for inf in mc_runs))
+        st = mc.stats()
+        log.info("Monte-Carlo, %d samples: RMS median %.1f mm, 95th percentile %.1f mm", samples,
+                 st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
+    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, monte_carlo=mc)

@@ -19,6 +19,11 @@ def add_parser(sub, parents):
     p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
     p.add_argument("--no-envelope", action="store_true",
                    help="skip the runs with every string at its lo95 and hi95 length")
+    p.add_argument("--samples", type=int, default=0, metavar="K",
+                   help="also inflate K Monte-Carlo samples of the string lengths (calibration posterior and "
+                        "per-string scatter): RMS quantiles, inflated_bands.ply, the 95%% band (default 0: none)")
+    p.add_argument("--tolerance-mm", type=float, default=None, metavar="T",
+                   help="with --samples: report the probability that the RMS deviation is <= T mm")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
@@ -43,10 +48,18 @@ def run(args) -> int:
     if args.pressure_pa is not None:
         check_range("--pressure-pa", args.pressure_pa)
         params = replace(params, pressure=args.pressure_pa)
+    if args.samples < 0:
+        raise InputError(f"--samples must be >= 0, got {args.samples}")
+    if args.tolerance_mm is not None:
+        if args.samples == 0:
+            raise InputError("--tolerance-mm needs --samples K > 0")
+        if not (args.tolerance_mm > 0):
+            raise InputError(f"--tolerance-mm must be > 0, got {args.tolerance_mm!r}")
     workers = jobs(args)
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
-                   workers=workers, scheduler=scheduler(args))
+                   workers=workers, scheduler=scheduler(args), samples=args.samples, seed=args.seed if args.seed is not None else 0,
+                   tolerance=args.tolerance_mm * MM if args.tolerance_mm is not None else None)
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
         write_report(tmp, check=result, title=f"airmat inflate: {design.name}")
@@ -56,5 +69,9 @@ def run(args) -> int:
 
 def check_not_converged(result) -> list[str]:
     """What did not converge in an inflation check: each run (median, lo95, hi95) by name."""
-    return [f"inflation with the {k} string lengths: {r.inflation.message}"
-            for k, r in result.runs.items() if not r.inflation.converged]
+    out = [f"inflation with the {k} string lengths: {r.inflation.message}"
+           for k, r in result.runs.items() if not r.inflation.converged]
+    mc = result.monte_carlo
+    if mc is not None and not mc.converged.all():
+        out.append(f"{int((~mc.converged).sum())} of {mc.converged.size} Monte-Carlo runs")
+    return out
