@@ -123,7 +123,8 @@ def quantile_se(x, q: float, *, n_boot: int = 1000, seed: int = 0) -> float:
     """
     x = np.asarray(x, float)
     idx = np.random.default_rng(seed).integers(0, x.size, size=(n_boot, x.size))
-    return float(np.std(np.quantile(x[idx], q, axis=1), ddof=1))
+    boot = np.quantile(x[idx], q, axis=1)
+    return 0.0 if np.ptp(boot) == 0 else float(np.std(boot, ddof=1))   # exact 0 without spread
 
 
 @dataclass(frozen=True)

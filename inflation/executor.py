@@ -36,6 +36,7 @@ import shlex
 import sys
 import tempfile
 
+from airmat.errors import AirmatError, InputError, TaskError
 from airmat.progress import progress, set_progress
 
 __all__ = ["map_shared", "scheduler_address", "SCHEDULER_ENV"]
@@ -123,7 +124,10 @@ def _client(workers: int, scheduler: str | None):
         from distributed import Client
 
         _quiet_dask_logs()
-        client = Client(scheduler, set_as_default=False, timeout="30s")
+        try:
+            client = Client(scheduler, set_as_default=False, timeout="30s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"no Dask scheduler reachable at {scheduler}: {exc}") from None
         try:
             yield client
         finally:
@@ -149,6 +153,14 @@ def _client(workers: int, scheduler: str | None):
     finally:
         with contextlib.suppress(Exception):
             cluster.close(timeout=10)
+
+
+def _raise_task_error(future):
+    """Raise a failed task's exception: airmat's own as raised on the worker, any other as a TaskError."""
+    exc = future.exception()
+    if isinstance(exc, AirmatError):
+        raise exc
+    raise TaskError(f"a task failed on a Dask worker: {type(exc).__name__}: {exc}") from exc
 
 
 def map_shared(fn, shared, items, *, workers: int = 1, scheduler: str | None = None,
@@ -177,8 +189,12 @@ def map_shared(fn, shared, items, *, workers: int = 1, scheduler: str | None = N
 
     Raises
     ------
-    Exception
-        The first failed task's exception, after the others are cancelled.
+    airmat.errors.AirmatError
+        The first failed task's exception, after the others are cancelled: an airmat error
+        as raised on the worker, any other wrapped in :class:`~airmat.errors.TaskError`
+        (serial runs raise it unwrapped).
+    airmat.errors.InputError
+        No scheduler at ``scheduler``.
 
     Examples
     --------
@@ -200,7 +216,7 @@ def map_shared(fn, shared, items, *, workers: int = 1, scheduler: str | None = N
             with progress(total=len(futures), desc=f"{desc} ({where})", unit=unit) as bar:
                 for f in as_completed(futures, loop=client.loop):
                     if f.status == "error":
-                        f.result()          # raises the task's exception, as raised on the worker
+                        _raise_task_error(f)
                     bar.update(1)
             return client.gather(futures)
         except BaseException:
