@@ -46,6 +46,9 @@ log = logging.getLogger(__name__)
 #: environment variable naming an existing Dask scheduler (``tcp://host:port``)
 SCHEDULER_ENV = "AIRMAT_SCHEDULER"
 
+#: how long to wait for an existing scheduler to answer
+CONNECT_TIMEOUT = "30s"
+
 
 def scheduler_address(explicit: str | None = None) -> str | None:
     """The Dask scheduler to use: ``explicit``, else ``$AIRMAT_SCHEDULER``, else None (a local cluster).
@@ -125,7 +128,7 @@ def _client(workers: int, scheduler: str | None):
 
         _quiet_dask_logs()
         try:
-            client = Client(scheduler, set_as_default=False, timeout="30s")
+            client = Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"no Dask scheduler reachable at {scheduler}: {exc}") from None
         try:

@@ -129,7 +129,8 @@ def test_a_worker_that_raises_ends_the_run_with_one_line(tmp_path, design_dir):
     assert not (tmp_path / "out").exists()
 
 
-def test_no_scheduler_at_the_address_is_bad_input(tmp_path, capsys):
+def test_no_scheduler_at_the_address_is_bad_input(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("inflation.executor.CONNECT_TIMEOUT", "2s")
     design = make_design(tmp_path / "design")
     assert main(["inflate", str(design), "--out", str(tmp_path / "out"), "--resolution-mm", "50",
                  "--scheduler", "tcp://127.0.0.1:9", "-q"]) == 2
