@@ -9,6 +9,11 @@ compares each result with Ŝ on the named face (:func:`check.compare.length_keep
 the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
 does), with the other faces for reference. SI units.
 
+With ``samples=K`` it also inflates K Monte-Carlo samples of the string lengths
+(:func:`check.monte_carlo.draw`: the posterior of (Δ, d, σ) and each string's own
+scatter), in the same batch as the three runs, and summarizes their deviations on
+the same face (:func:`check.monte_carlo.summarize`).
+
 The three runs are independent, so ``workers > 1`` runs them in that many
 Dask worker processes, or ``scheduler`` on an existing cluster
 (:func:`~inflation.simulate.inflate_many`, :mod:`inflation.executor`).

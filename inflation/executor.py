@@ -39,12 +39,16 @@ import tempfile
 from airmat.errors import AirmatError, InputError, TaskError
 from airmat.progress import progress, set_progress
 
-__all__ = ["map_shared", "scheduler_address", "SCHEDULER_ENV"]
+__all__ = ["map_shared", "local_cluster", "scheduler_address", "SCHEDULER_ENV"]
 
 log = logging.getLogger(__name__)
 
 #: environment variable naming an existing Dask scheduler (``tcp://host:port``)
 SCHEDULER_ENV = "AIRMAT_SCHEDULER"
+
+#: the local workers' environment: single-threaded BLAS as in this process, and not Dask's default
+#: MALLOC_TRIM_THRESHOLD_=65536, which makes an inflation about a third slower (bench/bench_monte_carlo.py)
+_WORKER_ENV = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 
 #: how long to wait for an existing scheduler to answer
 CONNECT_TIMEOUT = "30s"
@@ -136,23 +140,37 @@ def _client(workers: int, scheduler: str | None):
         finally:
             client.close()
         return
-    import dask
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    _quiet_dask_logs()
-    _quiet_resource_tracker()
-    with tempfile.TemporaryDirectory(prefix="airmat-dask-") as tmp, _workers_ignore_sigint(tmp):
-        with dask.config.set({"distributed.worker.daemon": True, "logging.distributed": "critical",
-                              "distributed.worker.multiprocessing-method": "spawn"}):
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL,
-                                   host="127.0.0.1", worker_dashboard_address=None)
-    try:
+    with local_cluster(workers) as cluster:
         client = Client(cluster, set_as_default=False)
         try:
             yield client
         finally:
             client.close()
+
+
+@contextlib.contextmanager
+def local_cluster(workers: int):
+    """A quiet :class:`distributed.LocalCluster` of ``workers`` single-threaded worker processes.
+
+    On 127.0.0.1, no dashboard, Dask's logs off, the workers ignoring SIGINT from their start
+    (:func:`_workers_ignore_sigint`) with the environment ``_WORKER_ENV``; closed on exit.
+    """
+    import dask
+    from distributed import LocalCluster
+
+    _quiet_dask_logs()
+    _quiet_resource_tracker()
+    with tempfile.TemporaryDirectory(prefix="airmat-dask-") as tmp, _workers_ignore_sigint(tmp):
+        with dask.config.set({"distributed.worker.daemon": True, "logging.distributed": "critical",
+                              "distributed.worker.multiprocessing-method": "spawn",
+                              "distributed.nanny.pre-spawn-environ": _WORKER_ENV}):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.CRITICAL,
+                                   host="127.0.0.1", worker_dashboard_address=None)
+    try:
+        yield cluster
     finally:
         with contextlib.suppress(Exception):
             cluster.close(timeout=10)
