@@ -10,7 +10,7 @@ from __future__ import annotations
 from os import PathLike
 from typing import Any
 
-__all__ = ["AirmatError", "InputError", "NotACylinderError", "ConvergenceError"]
+__all__ = ["AirmatError", "InputError", "NotACylinderError", "ConvergenceError", "TaskError"]
 
 
 class AirmatError(Exception):
@@ -54,3 +54,7 @@ class NotACylinderError(InputError):
 
 class ConvergenceError(AirmatError, RuntimeError):
     """A solver diverged (NaN, energy blow-up) or could not reach its tolerance."""
+
+
+class TaskError(AirmatError, RuntimeError):
+    """A task failed on a Dask worker with an exception that is not airmat's (kept as ``__cause__``)."""

@@ -3,7 +3,9 @@
 Public API (SI units: metres, 1/m):
 
 - :func:`check` -- inflate a :class:`~design.pipeline.DesignResult` at the median string
-  lengths and at both tolerance ends (``inflation_check``).
+  lengths and at both tolerance ends, and K Monte-Carlo samples of them (``inflation_check``).
+- :class:`MonteCarloDraws`, :class:`MonteCarloResult` -- the sampled string lengths and the
+  statistics of their runs (``monte_carlo``).
 - :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ on a
   named face (:func:`length_keeping_face`: the face opposite the strings) (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
@@ -25,6 +27,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
     "calibrated_map": ["calibrated_length_map"],
     "length_map": ["LengthMap", "CalibratedLengthMap", "length_map"],
+    "monte_carlo": ["MonteCarloDraws", "MonteCarloResult"],
     "report": ["write_check"],
     "refinement": ["Refinement", "refine", "check_refinable", "refined_design"],
     "adjoint": ["rest_derivative", "factor_equilibrium", "equilibrium_jacobian", "adjoint_gradient"],

@@ -10,19 +10,26 @@ compares each result with Ŝ on the named face (:func:`check.compare.length_keep
 the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
 does), with the other faces for reference. SI units.
 
+With ``samples=K`` it also inflates K Monte-Carlo samples of the string lengths
+(:func:`check.monte_carlo.draw`: the posterior of (Δ, d, σ) and each string's own
+scatter), in the same batch as the three runs, and summarizes their deviations on
+the same face (:func:`check.monte_carlo.summarize`).
+
 The three runs are independent, so ``workers > 1`` runs them in that many
-processes (:func:`~inflation.simulate.inflate_many`).
+Dask worker processes, or ``scheduler`` on an existing cluster
+(:func:`~inflation.simulate.inflate_many`, :mod:`inflation.executor`).
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from check.compare import SURFACES, Deviation, deviation, length_keeping_face, realized_curvature
 from check.length_map import length_map
+from check.monte_carlo import draw, summarize
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
@@ -109,6 +116,8 @@ class DesignCheck:
         are measured (``"top"``, ``"bottom"`` or ``"mid"``).
     lengths : LengthMap or CalibratedLengthMap
         The real -> simulated string length map the runs used.
+    monte_carlo : check.monte_carlo.MonteCarloResult or None
+        The Monte-Carlo samples' deviations on the same face, when asked for.
     """
 
     design: object
@@ -116,6 +125,7 @@ class DesignCheck:
     runs: dict
     surface: str = "mid"
     lengths: object = None
+    monte_carlo: object = None
 
     @property
     def converged(self) -> bool:
@@ -124,8 +134,9 @@ class DesignCheck:
 
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
-          strict: bool = False, workers: int = 1, surface: str = "auto", calibrated_map: bool = False,
-          lengths=None) -> DesignCheck:
+          strict: bool = False, workers: int = 1, scheduler: str | None = None, surface: str = "auto",
+          calibrated_map: bool = False, lengths=None, samples: int = 0, seed: int = 0,
+          tolerance: float | None = None) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -142,7 +153,9 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     strict : bool
         Raise ConvergenceError when a run does not converge.
     workers : int
-        Processes for the runs (1: one after the other, in this process).
+        Local worker processes for the runs (1: one after the other, in this process).
+    scheduler : str, optional
+        Address of an existing Dask scheduler for the runs (:mod:`inflation.executor`).
     surface : {"auto", "top", "bottom", "mid"}
         The face compared with Ŝ; ``"auto"``: the length-keeping face
         (:func:`~check.compare.length_keeping_face`).
@@ -152,6 +165,13 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         resolution and the mattress's thickness, cached on disk) instead of l + 2Δ.
     lengths : LengthMap or CalibratedLengthMap, optional
         The map to use (overrides ``calibrated_map``).
+    samples : int
+        Monte-Carlo samples K of the strings' lengths (:func:`check.monte_carlo.draw`), inflated
+        with the median / lo95 / hi95 runs in one batch; 0: none.
+    seed : int
+        Seed of the Monte-Carlo samples.
+    tolerance : float, optional
+        T (m) of the Monte-Carlo's P(RMS <= T).
 
     Returns
     -------
@@ -171,8 +191,11 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                              thickness=m.thickness, params=params, workers=workers)
     log.debug("string lengths simulated through %s", type(lengths).__name__)
     string_sets = [design_strings(design, which, lengths=lengths) for which in which_runs]
-    inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets], params=params,
-                              strict=strict, workers=workers)
+    draws = draw(design, samples, seed, lengths=lengths) if samples > 0 else None
+    mc_sets = [replace(string_sets[0], rest=rest) for rest in draws.rest] if draws is not None else []
+    inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets + mc_sets], params=params,
+                              strict=strict, workers=workers, scheduler=scheduler)
+    inflations, mc_runs = inflations[:len(which_runs)], inflations[len(which_runs):]
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
     # each string's share of the bending: the string face shortens by about |kappa| d per unit length
@@ -191,4 +214,15 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                  "(mid-surface RMS %.1f mm)", which, inf.n_iter, inf.seconds, named, dev.rms * 1e3,
                  dev.max * 1e3, devs["mid"].rms * 1e3)
         runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free)
-    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths)
+    mc = None
+    if draws is not None:
+        devs = [deviation(inf, design.approx.xyz, design.approx.uv, named) for inf in mc_runs]
+        if not all(inf.converged for inf in mc_runs):
+            log.warning("%d of %d Monte-Carlo runs did not converge", sum(not i.converged for i in mc_runs), samples)
+        mc = summarize(draws, devs, tolerance=tolerance, converged=[inf.converged for inf in mc_runs],
+                       seconds=sum(inf.seconds for inf in mc_runs))
+        st = mc.stats()
+        log.info("Monte-Carlo, %d samples: RMS median %.1f mm, 95th percentile %.1f mm", samples,
+                 st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
+    return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths,
+                       monte_carlo=mc)

@@ -1,5 +1,9 @@
 """Files of the inflation check: inflate.json, inflated.ply, inflated.3dm, deviation.png (mm, 1/m).
 
+With Monte-Carlo samples (:mod:`check.monte_carlo`): inflate.json's ``monte_carlo``
+block, ``inflated_bands.ply`` (Ŝ with per-vertex 50 % / 95 % deviation quantiles)
+and a third panel of deviation.png, the 95 % band.
+
 ``inflated.3dm`` is the design's Rhino file (:mod:`design.export.rhino`) with the
 inflated shapes added: each run's mid-surface at Ŝ's vertices after the Kabsch
 alignment of the check (``CheckRun.deviation.aligned``), i.e. in Ŝ's frame, on
@@ -25,7 +29,55 @@ from airmat.figures import new_figure, save_png
 from airmat.json_doc import dumps, finish
 from airmat.units import M_TO_MM
 
-__all__ = ["check_dict", "deviation_figure", "write_check", "summary_text"]
+__all__ = ["check_dict", "monte_carlo_dict", "deviation_figure", "write_check", "write_bands", "summary_text"]
+
+_MM = M_TO_MM
+
+
+def monte_carlo_dict(check) -> dict:
+    """The ``monte_carlo`` block of inflate.json (mm), from ``check.monte_carlo``."""
+    mc = check.monte_carlo
+    dr, st = mc.draws, mc.stats()
+    idx, corr = mc.sensitive()
+    strings = check.design.pattern.strings
+    out = {"samples": dr.n, "seed": dr.seed, "surface": check.surface,
+           "chain": "per sample: (delta, d, sigma) drawn from the design's calibration posterior; per string, "
+                    "kappa = kappa1(l_median; delta, d) + N(0, sigma^2) independent per string, turned into a "
+                    "length by Equation 3 at the design's median (delta, d), then simulated at the length map's "
+                    "l* (check.monte_carlo)",
+           "sigma_source": dr.sigma_source,
+           "rms_mm": {"median": round(st["rms_median"] * _MM, 3), "median_se": round(st["rms_median_se"] * _MM, 3),
+                      "p95": round(st["rms_p95"] * _MM, 3), "p95_se": round(st["rms_p95_se"] * _MM, 3),
+                      "per_sample": [round(float(r) * _MM, 3) for r in mc.rms]},
+           "se_method": "bootstrap of the quantile over the samples (1000 resamples, seeded by seed)",
+           "converged": int(np.count_nonzero(mc.converged))}
+    if mc.tolerance is not None:
+        out["tolerance_mm"] = round(mc.tolerance * _MM, 3)
+        out["p_rms_within_tolerance"] = round(st["p_within"], 4)
+        out["p_rms_within_tolerance_se"] = round(st["p_within_se"], 4)
+    out["sensitive_strings"] = [{"id": strings[i].dash.id, "side": strings[i].side,
+                                 "correlation": round(float(c), 3)} for i, c in zip(idx, corr)]
+    out["sensitivity"] = ("Pearson correlation over the samples between a string's curvature change "
+                          "(kappa - kappa at the medians) and the run's RMS deviation, largest |r| first: the "
+                          "scatter is independent per string, so r measures that string's own effect; its "
+                          "standard error is about 1/sqrt(samples)")
+    out["bands_file"] = "inflated_bands.ply"
+    return out
+
+
+def write_bands(check, path) -> None:
+    """inflated_bands.ply: Ŝ's mesh (mm) with the Monte-Carlo deviation quantiles per vertex.
+
+    Vertex properties ``deviation_q50_mm`` and ``deviation_q95_mm``: the 50 % and 95 % quantiles,
+    over the samples, of each vertex's distance from the aligned inflated face (mm).
+    """
+    import trimesh
+
+    a, q = check.design.approx, check.monte_carlo.per_vertex_q
+    mesh = trimesh.Trimesh(a.xyz * _MM, a.faces, process=False)
+    mesh.vertex_attributes["deviation_q50_mm"] = (q[0] * _MM).astype(np.float32)
+    mesh.vertex_attributes["deviation_q95_mm"] = (q[1] * _MM).astype(np.float32)
+    atomic_write_bytes(path, trimesh.exchange.ply.export_ply(mesh, encoding="binary", include_attributes=True))
 
 
 def _dev_dict(dev) -> dict:
@@ -70,8 +122,12 @@ def check_dict(check) -> dict:
         if free is not None:
             dash["kappa_realized_free_per_m"] = round(float(free[n]), 4)
     doc["converged"] = bool(check.converged)
+    if check.monte_carlo is not None:
+        doc["monte_carlo"] = monte_carlo_dict(check)
     # the one field that differs between two runs of the same inputs: wall-clock seconds per run
     doc["timings_s"] = {k: round(r.inflation.seconds, 3) for k, r in check.runs.items()}
+    if check.monte_carlo is not None:
+        doc["timings_s"]["monte_carlo_runs"] = round(check.monte_carlo.seconds, 3)
     return finish(doc)
 
 
@@ -89,8 +145,11 @@ def deviation_figure(check):
     d, med = check.design, check.runs["median"]
     uv, faces = d.approx.uv, d.approx.faces
     kappa = np.array([s.kappa for s in d.pattern.strings])
-    fig = new_figure((13, 5.5))
-    ax, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1]})
+    mc = check.monte_carlo
+    fig = new_figure((19, 5.5) if mc is not None else (13, 5.5))
+    axes = fig.subplots(1, 3 if mc is not None else 2,
+                        gridspec_kw={"width_ratios": [1.25, 1, 1.25] if mc is not None else [1.25, 1]})
+    ax, ax2 = axes[0], axes[1]
     tpc = ax.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces,
                        med.deviation.per_vertex * M_TO_MM, shading="gouraud", cmap="viridis")
     fig.colorbar(tpc, ax=ax, label="deviation from Ŝ (mm)")
@@ -113,6 +172,17 @@ def deviation_figure(check):
     ax2.set_title("curvature along each dash", fontsize=9)
     env = " · ".join(f"{k}: RMS {r.deviation.rms * M_TO_MM:.1f} mm, max {r.deviation.max * M_TO_MM:.1f} mm"
                      for k, r in check.runs.items())
+    if mc is not None:
+        ax3 = axes[2]
+        band = ax3.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces, mc.per_vertex_q[1] * M_TO_MM,
+                             shading="gouraud", cmap="magma")
+        fig.colorbar(band, ax=ax3, label="95 % quantile of the deviation (mm)")
+        ax3.set_aspect("equal")
+        ax3.set_xlabel("u (mm)")
+        st = mc.stats()
+        ax3.set_title(f"95 % band over {mc.rms.size} Monte-Carlo samples\n(RMS median "
+                      f"{st['rms_median'] * M_TO_MM:.1f}, 95th percentile {st['rms_p95'] * M_TO_MM:.1f} mm)",
+                      fontsize=9)
     fig.suptitle(f"airmat inflate: {env}", fontsize=10)
     fig.tight_layout()
     return fig
@@ -136,6 +206,8 @@ def write_check(check, folder) -> dict:
     write_3dm(folder / "inflated.3dm", document(check.design), a.xyz, a.uv, a.faces,
               shapes={k: r.deviation.aligned for k, r in check.runs.items()})
     save_png(deviation_figure(check), folder / "deviation.png", dpi=110)
+    if check.monte_carlo is not None:
+        write_bands(check, folder / "inflated_bands.ply")
     return doc
 
 
@@ -158,5 +230,17 @@ def summary_text(doc: dict, out) -> str:
         lines.append(f"  realized minus target curvature per dash (on the {dev.get('surface', 'mid')} face): "
                      f"mean {err.mean():+.2f}, "
                      f"RMS {np.sqrt(np.mean(err ** 2)):.2f} 1/m")
-    lines.append(f"  wrote inflate.json, inflated.ply, inflated.3dm, deviation.png to {out}")
+    mc = doc.get("monte_carlo")
+    if mc is not None:
+        r = mc["rms_mm"]
+        line = (f"  Monte-Carlo, {mc['samples']} samples (seed {mc['seed']}): RMS median {r['median']:.1f} "
+                f"+- {r['median_se']:.1f} mm, 95th percentile {r['p95']:.1f} +- {r['p95_se']:.1f} mm")
+        if "tolerance_mm" in mc:
+            line += (f", P(RMS <= {mc['tolerance_mm']:g} mm) = {mc['p_rms_within_tolerance']:.2f} "
+                     f"+- {mc['p_rms_within_tolerance_se']:.2f}")
+        lines.append(line)
+        if not mc["sigma_source"].startswith("posterior"):
+            lines.append(f"  Monte-Carlo scatter sigma: {mc['sigma_source']}")
+    files = "inflate.json, inflated.ply, inflated.3dm, deviation.png" + (", inflated_bands.ply" if mc else "")
+    lines.append(f"  wrote {files} to {out}")
     return "\n".join(lines)

@@ -222,7 +222,8 @@ def specimen_kappa(l_sim, *, layout: SpecimenLayout = SpecimenLayout(), resoluti
 
 def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: SpecimenLayout = SpecimenLayout(),
                        resolution: float = 0.04, params: Parameters = Parameters(), seed: int = 0,
-                       workers: int = 1, length_map=None, delta: float = 0.0, d: float | None = None):
+                       workers: int = 1, scheduler: str | None = None, length_map=None, delta: float = 0.0,
+                       d: float | None = None):
     """Simulate the specimen for each l/L and measure its curvature.
 
     Parameters
@@ -237,6 +238,8 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         Unused (no random step: the section circles are fitted by least squares); kept for the CLI.
     workers : int
         Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
+    scheduler : str, optional
+        Address of an existing Dask scheduler for the inflations.
     length_map : check.length_map.LengthMap or CalibratedLengthMap, optional
         Real length -> simulated rest length; default none (the rest length is l, Δ = 0).
     delta, d : float
@@ -252,7 +255,7 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
     real = np.asarray(ratios, float) * layout.L
     l_sim = real if length_map is None else np.asarray(length_map.to_simulated(real), float)
     inflations = inflate_many(mesh, [specimen_strings(layout, float(ls)) for ls in l_sim],
-                              params=params, workers=workers, desc="validate")
+                              params=params, workers=workers, scheduler=scheduler, desc="validate")
     points = []
     for r, l, ls, inf in zip(ratios, real, l_sim, inflations):
         k, se = section_curvature(inf, layout, "bottom")

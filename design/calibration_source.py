@@ -49,6 +49,10 @@ class CalibrationSource:
         True when the values are the paper's, not a calibration of this mattress.
     label : str
         One line for reports, e.g. ``"UNCALIBRATED: paper values ..."``.
+    sigma : ndarray of shape (s,) or None
+        Posterior samples of the specimen-to-specimen curvature scatter σ (1/m), paired with
+        ``delta`` and ``d``; None when not measured (the paper's default: the Monte-Carlo check
+        then uses σ = 0 and says so).
     """
 
     L: float
@@ -57,6 +61,7 @@ class CalibrationSource:
     source: str
     uncalibrated: bool
     label: str
+    sigma: np.ndarray | None = None
 
     @classmethod
     def from_calibration(cls, cal, **kwargs) -> "CalibrationSource":
@@ -101,7 +106,7 @@ def default_calibration(*, seed=0, n_samples: int = 2000, d: float | None = None
     -------
     CalibrationSource
         ``uncalibrated=True``; Δ ~ N(18 mm, 3 mm) clipped at 0, d ~ N(d, 5 mm)
-        clipped at d / 2.
+        clipped at d / 2; ``sigma=None`` (the paper measured no scatter σ).
     """
     rng = np.random.default_rng(seed)
     d0 = PAPER["d"] if d is None else float(d)
@@ -145,6 +150,7 @@ def from_calibration(cal, *, source: str | None = None, max_samples: int | None 
     """
     samples = np.asarray(cal.posterior.samples, float)
     delta, d = _thin(samples[:, 0], max_samples), _thin(samples[:, 1], max_samples)
+    sigma = _thin(samples[:, 2], max_samples) if samples.shape[1] > 2 else None
     L = float(cal.curve.L)
     source = str(source if source is not None else cal.manifest.path)
     if samples.shape[0] > delta.size:
@@ -152,7 +158,7 @@ def from_calibration(cal, *, source: str | None = None, max_samples: int | None 
     label = (f"calibrated ({source}): L = {L * M_TO_MM:.0f} mm, "
              f"delta = {np.median(delta) * M_TO_MM:.1f} mm, d = {np.median(d) * M_TO_MM:.1f} mm "
              f"(posterior medians, {delta.size} samples)")
-    return CalibrationSource(L=L, delta=delta, d=d, source=source, uncalibrated=False, label=label)
+    return CalibrationSource(L=L, delta=delta, d=d, source=source, uncalibrated=False, label=label, sigma=sigma)
 
 
 def load_calibration(folder, *, max_samples: int | None = 2000) -> CalibrationSource:

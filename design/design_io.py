@@ -9,7 +9,8 @@ memory or from files alike. Files are in millimetres (lengths rounded to
 0.01 mm in ``design.json``); the library side is SI.
 
 ``calibration_samples.npz`` keeps the posterior samples (``delta_m``, ``d_m``,
-``L_m``) the string lengths were computed from, bit for bit; a folder written
+``L_m``; ``sigma_per_m`` when the calibration measured the scatter σ) the string
+lengths were computed from, bit for bit; a folder written
 before it existed is read with the posterior medians of ``design.json`` as a
 single sample.
 """
@@ -63,7 +64,10 @@ def report_dict(report) -> dict:
 
 
 def _write_samples(path: Path, calibration: CalibrationSource) -> None:
-    atomic_write_bytes(path, npz_bytes(delta_m=calibration.delta, d_m=calibration.d, L_m=np.float64(calibration.L)))
+    arrays = dict(delta_m=calibration.delta, d_m=calibration.d, L_m=np.float64(calibration.L))
+    if calibration.sigma is not None:
+        arrays["sigma_per_m"] = calibration.sigma
+    atomic_write_bytes(path, npz_bytes(**arrays))
 
 
 def document(result: DesignResult) -> dict:
@@ -206,21 +210,26 @@ def _calibration(folder: Path, doc: dict, path: Path, L: float, thickness: float
         try:
             with open(samples, "rb") as fh, np.load(fh, allow_pickle=False) as npz:  # closed on BadZipFile
                 delta, d = np.asarray(npz["delta_m"], float).ravel(), np.asarray(npz["d_m"], float).ravel()
+                sigma = np.asarray(npz["sigma_per_m"], float).ravel() if "sigma_per_m" in npz.files else None
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
             why = "empty file" if isinstance(exc, EOFError) else (str(exc) or type(exc).__name__)
             raise InputError(f"not readable as the design's calibration samples: {why}", path=samples) from None
         if delta.size == 0 or delta.shape != d.shape or not (np.all(np.isfinite(delta)) and np.all(d > 0)):
             raise InputError("calibration samples must be finite, non-empty, of one length, with d > 0",
                              path=samples)
+        if sigma is not None and (sigma.shape != delta.shape or not np.all(sigma >= 0)):
+            raise InputError("calibration samples: sigma_per_m must be >= 0, one per delta_m", path=samples)
     else:   # a folder from another tool: the medians as one sample (d defaults to the thickness)
         delta = np.array([_number(_get(doc, "calibration.delta_mm.median", path), "calibration.delta_mm.median",
                                   path) * MM])
         d_mm = cal.get("d_mm", {}).get("median") if isinstance(cal.get("d_mm"), dict) else None
         d = np.array([_number(d_mm, "calibration.d_mm.median", path) * MM if d_mm is not None else thickness])
+        sigma = None
     if delta.min() < 0:
         raise InputError("calibration delta must be >= 0", path=path)
     return CalibrationSource(L=L, delta=delta, d=d, source=str(cal.get("source", "")),
-                             uncalibrated=bool(cal.get("uncalibrated", False)), label=str(cal.get("label", "")))
+                             uncalibrated=bool(cal.get("uncalibrated", False)), label=str(cal.get("label", "")),
+                             sigma=sigma)
 
 
 def _params(doc: dict, path: Path) -> DesignParams:

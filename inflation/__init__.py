@@ -7,6 +7,7 @@ Public API (SI units: metres, pascals, 1/m):
 - :class:`Parameters`, :func:`build_model` -- the terms of U_B (``model``, ``energy``).
 - :func:`solve` -- Newton / trust-region minimisation of U_B (``solver``, ``cholesky``).
 - :func:`inflate`, :func:`inflate_many` -- string ramp + coarse-to-fine solves (``simulate``, ``prolong``).
+- :func:`map_shared` -- the one executor of independent runs: serial or on Dask (``executor``).
 
 Comparing an inflation with Ŝ is the check's job (the ``check`` package).
 """
@@ -22,4 +23,5 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "model": ["Parameters", "build_model"],
     "solver": ["SolveResult", "solve"],
     "simulate": ["Inflation", "inflate", "inflate_many"],
+    "executor": ["map_shared", "scheduler_address"],
 })

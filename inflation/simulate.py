@@ -16,17 +16,13 @@ default wrinkling membrane needs no seed.
 from __future__ import annotations
 
 import logging
-import multiprocessing
-import signal
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from airmat.errors import ConvergenceError
-from airmat.progress import progress, set_progress
 from inflation.assembly import build_assembler
 from inflation.energy import block_pattern
 from inflation.mesh import MattressMesh, build_mattress_mesh
@@ -233,23 +229,23 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
                      stages=n_stages, string_lengths=lengths)
 
 
-def _quiet_worker() -> None:
-    """A worker process draws no progress bars, prints no log records and ignores Ctrl-C (the parent
-    reports, and on Ctrl-C stops the workers itself)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked by the parent while it spawned us
-    set_progress(False)
-    logging.getLogger().addHandler(logging.NullHandler())
+def _inflate_task(shared, strings):
+    """One inflation of :func:`inflate_many` (on a worker): the mesh is left out of the result (the caller has it)."""
+    mesh, params, strict = shared
+    return replace(inflate(mesh, strings, params=params, strict=strict), mesh=None)
 
 
 def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = Parameters(),
-                 strict: bool = False, workers: int = 1, desc: str = "inflate") -> list:
-    """:func:`inflate` ``mesh`` once per string set, in ``workers`` processes when > 1.
+                 strict: bool = False, workers: int = 1, scheduler: str | None = None,
+                 desc: str = "inflate") -> list:
+    """:func:`inflate` ``mesh`` once per string set, through :func:`inflation.executor.map_shared`.
 
     Each inflation is serial (the sparse Cholesky is single-threaded), so
-    independent runs (a design's median / lo95 / hi95 lengths, the ratios of
-    the validation) can share the cores. The results are the same as one
-    after the other: same code, same inputs, no random step.
+    independent runs (a design's median / lo95 / hi95 lengths, Monte-Carlo
+    samples, the ratios of the validation) can share the cores: on Dask
+    worker processes when ``workers > 1`` or ``scheduler`` is given. The
+    mesh and ``params`` go to the workers once. The results are the same as
+    one after the other: same code, same inputs, no random step.
 
     Parameters
     ----------
@@ -259,9 +255,11 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
     params : Parameters
     strict : bool
         Raise :class:`ConvergenceError` when a run does not converge (from
-        the worker, as raised there).
+        the worker, as raised there; the other runs are cancelled).
     workers : int
-        Processes (1: one after the other, in this process).
+        Local worker processes (1: one after the other, in this process).
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:port``).
     desc : str
         Label of the progress bar over the runs.
 
@@ -270,33 +268,8 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
     list of Inflation
         In the order of ``string_sets``.
     """
-    if workers <= 1 or len(string_sets) == 1:
-        return [inflate(mesh, s, params=params, strict=strict)
-                for s in progress(string_sets, desc=desc, unit="run")]
-    n = min(workers, len(string_sets))
-    pool = ProcessPoolExecutor(max_workers=n, initializer=_quiet_worker,
-                               mp_context=multiprocessing.get_context("spawn"))
-    processes = []
-    try:
-        # the workers start with SIGINT blocked (the mask is inherited), so that a Ctrl-C while they
-        # import, before _quiet_worker runs, prints no traceback; here it waits until the mask is restored
-        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            futures = [pool.submit(inflate, mesh, s, params=params, strict=strict) for s in string_sets]
-            processes = list(pool._processes.values())  # to stop them on Ctrl-C and to reap them
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
-        with progress(total=len(futures), desc=f"{desc} ({n} processes)", unit="run") as bar:
-            for f in futures:
-                if f.exception() is not None:       # waits for it; a failed run ends the others
-                    raise f.exception()
-                bar.update(1)
-        return [f.result() for f in futures]
-    except BaseException:                           # Ctrl-C or a failed run: stop the running ones too
-        for p in processes:
-            p.terminate()
-        raise
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-        for p in processes:                         # no <defunct> workers left behind
-            p.join()
+    from inflation.executor import map_shared
+
+    out = map_shared(_inflate_task, (mesh, params, strict), string_sets, workers=workers,
+                     scheduler=scheduler, desc=desc)
+    return [replace(r, mesh=mesh) for r in out]

@@ -7,7 +7,7 @@ import logging
 import time
 from pathlib import Path
 
-from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_range, check_resolution
 from airmat.errors import InputError
 
@@ -134,7 +134,7 @@ def run(args) -> int:
 
         t = time.perf_counter()
         log.info("inflate: %g mm", args.resolution_mm)
-        checked = check(result, resolution=args.resolution_mm * MM, workers=workers)
+        checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args))
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
         text = summary(out, cal, cs.truth, result, checked, seconds)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_resolution
 from airmat.errors import InputError
 
@@ -83,7 +83,7 @@ def run(args) -> int:
             result = dataclasses.replace(result, source=str(out / name / "design"))
             write_design(result, tmp / name / "design")
             t_design = time.perf_counter() - t
-            checked = check(result, resolution=args.resolution_mm * MM, workers=workers)
+            checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args))
             write_check(checked, tmp / name / "inflate")
             seconds = {"design": t_design, "inflate": time.perf_counter() - t - t_design}
             rows.append(table_row(result, checked, sum(seconds.values())))

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_range
 from airmat.errors import InputError
 
@@ -22,6 +22,11 @@ def add_parser(sub, parents):
     p.add_argument("--calibrated-map", action="store_true",
                    help="simulate each string at the rest length that makes the simulated specimen bend as the "
                         "calibration says (built from specimen runs at this resolution, cached), not at l + 2 delta")
+    p.add_argument("--samples", type=int, default=0, metavar="K",
+                   help="also inflate K Monte-Carlo samples of the string lengths (calibration posterior and "
+                        "per-string scatter): RMS quantiles, inflated_bands.ply, the 95%% band (default 0: none)")
+    p.add_argument("--tolerance-mm", type=float, default=None, metavar="T",
+                   help="with --samples: report the probability that the RMS deviation is <= T mm")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
@@ -46,10 +51,19 @@ def run(args) -> int:
     if args.pressure_pa is not None:
         check_range("--pressure-pa", args.pressure_pa)
         params = replace(params, pressure=args.pressure_pa)
+    if args.samples < 0:
+        raise InputError(f"--samples must be >= 0, got {args.samples}")
+    if args.tolerance_mm is not None:
+        if args.samples == 0:
+            raise InputError("--tolerance-mm needs --samples K > 0")
+        if not (args.tolerance_mm > 0):
+            raise InputError(f"--tolerance-mm must be > 0, got {args.tolerance_mm!r}")
     workers = jobs(args)
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
-                   workers=workers, calibrated_map=args.calibrated_map)
+                   workers=workers, calibrated_map=args.calibrated_map, scheduler=scheduler(args),
+                   samples=args.samples, seed=args.seed if args.seed is not None else 0,
+                   tolerance=args.tolerance_mm * MM if args.tolerance_mm is not None else None)
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
         write_report(tmp, check=result, title=f"airmat inflate: {design.name}")
@@ -59,5 +73,9 @@ def run(args) -> int:
 
 def check_not_converged(result) -> list[str]:
     """What did not converge in an inflation check: each run (median, lo95, hi95) by name."""
-    return [f"inflation with the {k} string lengths: {r.inflation.message}"
-            for k, r in result.runs.items() if not r.inflation.converged]
+    out = [f"inflation with the {k} string lengths: {r.inflation.message}"
+           for k, r in result.runs.items() if not r.inflation.converged]
+    mc = result.monte_carlo
+    if mc is not None and not mc.converged.all():
+        out.append(f"{int((~mc.converged).sum())} of {mc.converged.size} Monte-Carlo runs")
+    return out

@@ -7,7 +7,7 @@ calibrated κ₁ median (Equation 3 with the posterior median's Δ and d).
 
 from __future__ import annotations
 
-from airmat.cli._jobs import add_jobs_argument, jobs
+from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.errors import InputError
 
 
@@ -114,7 +114,8 @@ def run(args) -> int:
                              thickness=layout.thickness, workers=workers)
         delta = source.delta_median
     points = validate_equation3(ratios, layout=layout, resolution=args.resolution_mm * MM, seed=args.seed,
-                                workers=workers, length_map=lengths, delta=delta, d=d)
+                                workers=workers, scheduler=scheduler(args), length_map=lengths,
+                                delta=delta, d=d)
     with staged(args.out) as tmp:
         rows = _write(points, tmp, args.resolution_mm, layout=layout, delta=delta, d=d, lengths=lengths)
     if lengths is not None:

@@ -62,6 +62,9 @@ def test_load_calibration_reads_samples_and_L(tmp_path):
     np.testing.assert_array_equal(cal.delta, delta)
     np.testing.assert_array_equal(cal.d, d)
     assert "calibrated" in cal.label and str(tmp_path / "cal") in cal.source
+    # the scatter sigma, paired with delta and d (the Monte-Carlo check draws the three together)
+    with np.load(tmp_path / "cal" / "posterior.npz") as npz:
+        np.testing.assert_array_equal(cal.sigma, npz["sigma_per_m"])
 
 
 def test_load_calibration_thins_evenly(tmp_path):

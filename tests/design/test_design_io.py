@@ -92,3 +92,21 @@ def test_a_missing_folder_or_field_is_an_input_error(vault, tmp_path):
     with pytest.raises(InputError, match="mattress.thickness_mm") as err:
         read_design(broken)
     assert err.value.path.endswith("design.json")
+
+
+def test_sigma_samples_round_trip_exactly(vault, tmp_path):
+    """calibration_samples.npz keeps sigma_per_m when the calibration has it, and none for the paper's default."""
+    from dataclasses import replace
+
+    result, folder = vault
+    assert result.calibration.sigma is None and read_design(folder).calibration.sigma is None
+    sigma = np.linspace(0.1, 0.4, result.calibration.n_samples)
+    write_design(replace(result, calibration=replace(result.calibration, sigma=sigma)), tmp_path / "s")
+    np.testing.assert_array_equal(read_design(tmp_path / "s").calibration.sigma, sigma)
+    with np.load(tmp_path / "s" / "calibration_samples.npz") as npz:
+        assert set(npz.files) == {"delta_m", "d_m", "L_m", "sigma_per_m"}
+    bad = dict(np.load(tmp_path / "s" / "calibration_samples.npz"))
+    bad["sigma_per_m"] = -sigma
+    np.savez(tmp_path / "s" / "calibration_samples.npz", **bad)
+    with pytest.raises(InputError, match="sigma_per_m"):
+        read_design(tmp_path / "s")
