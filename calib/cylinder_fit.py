@@ -5,9 +5,9 @@ The pipeline, each step in its own module:
 1. local noise from voxel roughness (:mod:`calib.scan_noise`), which sets
    every threshold (so they scale with the scanner, not bare constants);
 2. voxel downsampling that drops sparse clutter voxels
-   (:mod:`calib.voxel_grid`), normals (open3d), then the support plane(s)
-   the specimen rests on (:mod:`calib.support_plane`, open3d
-   ``segment_plane``), taking care that a flat specimen is not one;
+   (:mod:`calib.voxel_grid`), normals (:mod:`calib.point_normals`), then
+   the support plane(s) the specimen rests on (:mod:`calib.support_plane`,
+   a seeded RANSAC), taking care that a flat specimen is not one;
 3. axis from the scatter of the normals, circle by RANSAC (scikit-image)
    in the projection along it, or a quadratic height field for a nearly
    flat specimen (:mod:`calib.cylinder_init`);
@@ -40,7 +40,8 @@ from calib.cylinder_irls import kappa_standard_error, polish
 from calib.cylinder_lsq import arc_position, refine, residuals
 from calib.cylinder_refine import full_resolution_fit, surface_spread
 from calib.scan_noise import local_noise
-from calib.scan_prep import normals_knn, specimen_candidates, specimen_voxel
+from calib.point_normals import normals_knn
+from calib.scan_prep import specimen_candidates, specimen_voxel
 from calib.voxel_grid import voxel_cloud
 
 __all__ = ["CylinderFit", "fit_cylinder", "MIN_FIT_POINTS"]

@@ -226,7 +226,7 @@ def test_groove_bands_find_a_groove_and_nothing_on_a_clean_face():
 
 def test_support_planes_floor_is_removed_flat_top_is_kept():
     from calib.voxel_grid import voxel_cloud
-    from calib.scan_prep import normals_knn
+    from calib.point_normals import normals_knn
 
     s = specimen_scan(0.0, n_points=40_000, seed=81)
     down = voxel_cloud(s.points, 0.015).points
