@@ -7,7 +7,7 @@ file needs (an ``airmat fit`` of a PLY loads no pye57 or laspy).
 ========================  ====================  =========================================
 suffix                    reader module         library
 ========================  ====================  =========================================
-.ply .obj .stl .off       ``mesh_reader``       trimesh
+.ply .obj .stl .off       ``mesh_reader``       trimesh; binary PLY point clouds: numpy
 .glb .gltf                ``mesh_reader``       trimesh (scenes with their node poses)
 .e57                      ``e57_reader``        pye57 (one scan, or all with their poses)
 .las .laz                 ``las_reader``        laspy with the lazrs LAZ backend
