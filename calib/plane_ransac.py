@@ -1,9 +1,10 @@
 """RANSAC for the dominant plane of a point cloud: seeded, vectorized, reproducible.
 
 Each trial is a plane through three random points; its score is the
-number of points within ``threshold``. Trials are scored in batches (one
-matrix product per batch: no loop per point), the best trial wins (ties:
-the first), so the same seed gives the same plane on every run and every
+number of points within ``threshold``. Every trial is scored on a random
+subset of the points (one matrix product per batch: no loop per point),
+the best few on all of them, and the best of those wins (ties: the
+first), so the same seed gives the same plane on every run and every
 machine, unlike a multi-threaded RANSAC whose winner depends on thread
 timing. Lengths in metres.
 """
@@ -16,6 +17,8 @@ __all__ = ["segment_plane"]
 
 #: trials scored per matrix product (memory: batch x N floats)
 _BATCH = 64
+#: points every trial is scored on, and trials rescored on all points
+_N_SCORE, _N_FINALISTS = 2_000, 8
 
 
 def segment_plane(points: np.ndarray, threshold: float, n_iterations: int = 500, *, seed=0) -> np.ndarray:
@@ -59,13 +62,17 @@ def segment_plane(points: np.ndarray, threshold: float, n_iterations: int = 500,
     ok = length > 0  # collinear or repeated points give no plane
     normal, a = normal[ok] / length[ok, None], a[ok]
     offset = -np.einsum("ij,ij->i", normal, a)
-    best, best_count = -1, -1
-    for start in range(0, len(normal), _BATCH):
-        d = np.abs(normal[start:start + _BATCH] @ local.T + offset[start:start + _BATCH, None])
-        counts = np.count_nonzero(d < threshold, axis=1)
-        i = int(np.argmax(counts))
-        if counts[i] > best_count:
-            best, best_count = start + i, int(counts[i])
-    if best < 0:
+    if not len(normal):
         return np.arange(0)
+    probe = local[rng.choice(n, _N_SCORE, replace=False)] if n > _N_SCORE else local
+    rough = _counts(normal, offset, probe, threshold)
+    finalists = np.sort(np.argsort(-rough, kind="stable")[:_N_FINALISTS])
+    best = finalists[int(np.argmax(_counts(normal[finalists], offset[finalists], local, threshold)))]
     return np.flatnonzero(np.abs(local @ normal[best] + offset[best]) < threshold)
+
+
+def _counts(normal, offset, points, threshold):
+    """(T,) points within ``threshold`` of each trial plane, in batches of trials."""
+    return np.concatenate([
+        np.count_nonzero(np.abs(normal[i:i + _BATCH] @ points.T + offset[i:i + _BATCH, None]) < threshold, axis=1)
+        for i in range(0, len(normal), _BATCH)])
