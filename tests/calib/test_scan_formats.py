@@ -215,3 +215,65 @@ def test_seeds_agree_on_a_clean_scan(spec):
     fit = fit_cylinder_stable(spec.points, seed=0, n_seeds=3)
     assert fit.n_seeds == 3 and fit.kappa_spread < 3 * fit.kappa_se * 1.5
     assert fit.kappa_se == fit_cylinder(spec.points, seed=0).kappa_se  # not widened
+
+
+@pytest.mark.parametrize("fmt", ["pts", "xyz", "txt"])
+def test_fast_text_read_is_bit_identical_to_loadtxt(tmp_path, spec, fmt):
+    from calib.scan_readers import read_cloud
+
+    path = write_scan(tmp_path / f"s.{fmt}", spec.points[:3000] * 1e3, fmt)
+    skip, delim = {"pts": (1, None), "xyz": (0, None), "txt": (1, ",")}[fmt]
+    ref = np.loadtxt(path, skiprows=skip, delimiter=delim, usecols=(0, 1, 2))
+    got = read_cloud(path).vertices
+    assert got.dtype == np.float64 and np.array_equal(got, ref)
+
+
+def test_text_rows_pandas_refuses_go_to_loadtxt(tmp_path):
+    from calib.scan_readers import read_cloud
+    from calib.scan_readers.text_reader import read_columns_fast
+
+    path = tmp_path / "n.xyz"
+    path.write_text("1 2 3\nnan 5 6\n7 8 9\n")  # nan: loadtxt reads it, the caller drops it
+    with open(path, "rb") as fh:
+        assert read_columns_fast(fh, 0, None) is None
+    got = read_cloud(path).vertices
+    assert np.isnan(got[1, 0]) and got[2].tolist() == [7.0, 8.0, 9.0]
+    short = tmp_path / "short.xyz"
+    short.write_text("1 2 3\n4 5\n7 8 9\n")  # never a silently filled value
+    with pytest.raises(InputError, match="cannot parse XYZ columns"):
+        read_cloud(short)
+
+
+def test_ascii_pcd_read_as_open3d_reads_it(tmp_path, spec):
+    from calib.scan_readers import pcd_reader
+
+    pts = spec.points[:4000] * 1e3
+    pts[::9] = np.nan
+    path = write_scan(tmp_path / "a.pcd", pts, "pcd_ascii")
+    got = pcd_reader.read(path).vertices
+    assert np.array_equal(got, pcd_reader._read_open3d(path), equal_nan=True)
+    odd = tmp_path / "odd.pcd"  # x y z not first nor in order, a field with COUNT 2
+    odd.write_text("VERSION 0.7\nFIELDS rgb normal z x y\nSIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 2 1 1 1\n"
+                   "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n9 0 0 3 1 2\n9 0 0 6 4 5\n")
+    assert pcd_reader.read(odd).vertices.tolist() == [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
+
+
+@pytest.mark.parametrize("encoding", ["binary_little_endian", "binary_big_endian"])
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_binary_ply_cloud_read_by_numpy_as_trimesh_reads_it(tmp_path, spec, encoding, dtype):
+    import trimesh
+
+    from calib.scan_readers.ply_points import read_binary_points
+
+    pts = spec.points[:2000] * 1e3
+    path = tmp_path / "c.ply"
+    write_ply(path, pts, encoding=encoding, dtype=dtype, colors=np.zeros((len(pts), 3), np.uint8))
+    got = read_binary_points(path)
+    assert got is not None and got.float32 == (dtype == "float32")
+    assert np.array_equal(got.vertices, np.asarray(trimesh.load(path, process=False).vertices, float))
+    mesh = tmp_path / "m.ply"
+    trimesh.creation.box().export(mesh, encoding="binary")
+    assert read_binary_points(mesh) is None  # faces: trimesh reads it
+    ascii_ = tmp_path / "a.ply"
+    write_ply(ascii_, pts, encoding="ascii")
+    assert read_binary_points(ascii_) is None
