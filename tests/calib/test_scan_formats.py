@@ -277,3 +277,31 @@ def test_binary_ply_cloud_read_by_numpy_as_trimesh_reads_it(tmp_path, spec, enco
     ascii_ = tmp_path / "a.ply"
     write_ply(ascii_, pts, encoding="ascii")
     assert read_binary_points(ascii_) is None
+
+
+def test_km_survey_tile_read_in_mm_is_refused(tmp_path):
+    """A 4 km terrain tile in metres, read in the default mm, is 4 m across: no specimen is."""
+    rng = np.random.default_rng(0)
+    n = 60_000
+    xy = rng.uniform(0, 4000, (n, 2))
+    z = 15 * np.sin(xy[:, 0] / 700) + 8 * np.cos(xy[:, 1] / 900) + rng.normal(0, 0.05, n)
+    path = tmp_path / "tile.xyz"
+    np.savetxt(path, np.column_stack([xy + [512000, 5400000], z + 300]), fmt="%.3f")
+    scan = read_scan(path)  # passes the read: 5.7 m is a plausible scan (a room)
+    with pytest.raises(NotACylinderError, match="spans 5.* m, more than any specimen"):
+        fit_cylinder(scan.points, seed=0)
+    same = fit_cylinder(scan.points * 0.5, seed=0)  # the same surface at 2.8 m: a fit (a gentle cylinder)
+    assert same.n_inliers > 0.5 * n
+
+
+def test_km_survey_tile_cli_exit_2(tmp_path, capsys):
+    from airmat.cli import main
+
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(0, 5000, (30_000, 2))
+    z = 10 * np.sin(xy[:, 0] / 900) + rng.normal(0, 0.05, len(xy))
+    path = tmp_path / "tile.xyz"
+    np.savetxt(path, np.column_stack([xy, z]), fmt="%.3f")
+    assert main(["fit", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(path) in err[0] and "more than any specimen" in err[0]
