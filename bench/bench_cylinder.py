@@ -120,7 +120,8 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=3):
     from data_synthetic.scan_write import FORMATS, write_scan
 
     library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs", "glb": "trimesh",
-               "ply": "trimesh", "pts": "numpy", "xyz": "numpy", "txt": "numpy"}
+               "ply": "numpy (binary cloud)", "pts": "pandas", "xyz": "pandas", "txt": "pandas",
+               "pcd_ascii": "pandas"}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
