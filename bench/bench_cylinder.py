@@ -24,7 +24,8 @@ fitted: read time, its ratio to the PLY read, file size and radius error.
 
 With ``--process N``: ``airmat fit`` and the recipe as a script
 (bench/recipe_cylinder.py, reading the file with open3d) run as whole
-processes on an N-point binary PLY, alternately, start-up included: the
+processes on an N-point binary PLY, alternately, start-up included (and the
+script's imports + read alone, the floor of any such script): the
 ratio of their median wall times (goal: airmat <= 0.85 x the script).
 
 Run:  .venv/bin/python bench/bench_cylinder.py --sizes 100000,1000000 --repeats 3
@@ -162,7 +163,13 @@ def process_rows(n, seed, kappa, arc_deg, repeats=5):
         path = write_scan(Path(tmp) / "scan.ply", scan.points * 1e3, "ply", seed=seed)
         commands = {"airmat fit": [sys.executable, "-m", "airmat", "fit", str(path)],
                     "open3d + least_squares script": [sys.executable, str(root / "bench" / "recipe_cylinder.py"),
-                                                      str(path)]}
+                                                      str(path)],
+                    # the floor of any such script: its imports and the open3d read, no fit at all
+                    "script's imports + open3d read only": [
+                        sys.executable, "-c", "import json, sys, numpy as np, open3d as o3d, scipy.optimize, "
+                        "skimage.measure; from skimage.measure import CircleModel, ransac; "
+                        "np.asarray(o3d.io.read_point_cloud(sys.argv[1]).points); "
+                        "print(json.dumps({'radius_mm': float('nan')}))", str(path)]}
         times = {k: [] for k in commands}
         radius = {}
         for r in range(repeats + 1):  # the first round warms the file cache and is not timed
@@ -182,7 +189,8 @@ def process_markdown(rows, ratio, n, repeats):
             f"runs each; airmat / script = {ratio:.2f}\n\n"
             "| command | time median (s) | min (s) | max (s) | radius error (%) |\n"
             "|---|---:|---:|---:|---:|\n")
-    return head + "".join(f"| {m} | {t:.2f} | {lo:.2f} | {hi:.2f} | {e:.4f} |\n" for m, t, lo, hi, e in rows)
+    return head + "".join(f"| {m} | {t:.2f} | {lo:.2f} | {hi:.2f} | {'-' if not np.isfinite(e) else f'{e:.4f}'} |\n"
+                          for m, t, lo, hi, e in rows)
 
 
 def format_markdown(rows, n):
