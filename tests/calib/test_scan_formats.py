@@ -305,3 +305,28 @@ def test_km_survey_tile_cli_exit_2(tmp_path, capsys):
     assert main(["fit", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(path) in err[0] and "more than any specimen" in err[0]
+
+
+def test_binary_pcd_read_by_numpy_as_open3d_reads_it(tmp_path, spec):
+    from calib.scan_readers import pcd_reader
+
+    pts = spec.points[:4000] * 1e3
+    pts[::9] = np.nan
+    path = write_scan(tmp_path / "b.pcd", pts, "pcd_binary")
+    got = pcd_reader._read_binary(path, pcd_reader._header(path))
+    assert got is not None and np.array_equal(got, pcd_reader._read_open3d(path), equal_nan=True)
+    # PCL's layout: padding "_" fields, a field with COUNT 3, x y z not first
+    rec = np.dtype([("rgb", "<f4"), ("n", "<f4", (3,)), ("_", "<u1", (4,)), ("z", "<f8"), ("x", "<f8"),
+                    ("y", "<f8"), ("_2", "<u1", (4,))])
+    body = np.zeros(3, rec)
+    body["x"], body["y"], body["z"] = [1, 4, 7], [2, 5, 8], [3, 6, 9]
+    head = ("VERSION 0.7\nFIELDS rgb normal _ z x y _\nSIZE 4 4 1 8 8 8 1\nTYPE F F U F F F U\n"
+            "COUNT 1 3 4 1 1 1 4\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA binary\n").encode()
+    odd = tmp_path / "odd.pcd"
+    odd.write_bytes(head + body.tobytes())
+    raw = pcd_reader.read(odd)
+    assert raw.vertices.tolist() == [[1, 2, 3], [4, 5, 6], [7, 8, 9]] and not raw.float32
+    cut = tmp_path / "cut.pcd"
+    cut.write_bytes(head + body.tobytes()[:-10])
+    with pytest.raises(InputError, match="truncated or corrupt"):
+        read_scan(cut)
