@@ -122,7 +122,7 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=3):
 
     library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs", "glb": "trimesh",
                "ply": "numpy (binary cloud)", "pts": "pandas", "xyz": "pandas", "txt": "pandas",
-               "pcd_ascii": "pandas"}
+               "pcd_ascii": "pandas", "pcd_binary": "numpy"}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
