@@ -5,7 +5,7 @@ partial arc, floor plane, 5% clutter, holes, string-end grooves, random pose) an
 is timed on them; the table gives wall time and radius error per scan size.
 
 - ``airmat``: calib.cylinder_fit.fit_cylinder on every point.
-- ``recipe``: the plain recipe, written compactly here: open3d voxel downsampling and
+- ``recipe``: the plain recipe (bench/recipe_cylinder.py): open3d voxel downsampling and
   plane removal, open3d normals, axis = smallest eigenvector of the normals' scatter,
   circle by RANSAC in the projection (skimage), then scipy least_squares (soft_l1, scale
   from the MAD of the start's residuals) over axis, centre and radius on the points near
@@ -22,7 +22,14 @@ open3d, trimesh, numpy text layouts), read back with calib.scan_io.read_scan
 (median of 3 reads, after one warm-up read that loads the library), and
 fitted: read time, its ratio to the PLY read, file size and radius error.
 
+With ``--process N``: ``airmat fit`` and the recipe as a script
+(bench/recipe_cylinder.py, reading the file with open3d) run as whole
+processes on an N-point binary PLY, alternately, start-up included (and the
+script's imports + read alone, the floor of any such script): the
+ratio of their median wall times (goal: airmat <= 0.85 x the script).
+
 Run:  .venv/bin/python bench/bench_cylinder.py --sizes 100000,1000000 --repeats 3
+Process:  .venv/bin/python bench/bench_cylinder.py --sizes 0 --process 1280000
 Formats:  .venv/bin/python bench/bench_cylinder.py --sizes 0 --formats 1000000
 Quick check:  .venv/bin/python bench/bench_cylinder.py --sizes 20000 --repeats 1 --cf-points 200
 Targets (airmat): 1,000,000 points under 1.5 s with radius error < 0.1 %; 100k well under 1 s.
@@ -43,48 +50,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from calib.cylinder_fit import fit_cylinder  # noqa: E402
 from data_synthetic.specimen_scan import specimen_scan  # noqa: E402
-
-
-def recipe_fit(points, seed=0):
-    """The plain recipe (see the module docstring); returns the radius (m)."""
-    import open3d as o3d
-    from scipy.optimize import least_squares
-
-    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
-    o3d.utility.random.seed(seed)
-    diag = float(np.linalg.norm(np.ptp(points, axis=0)))
-    thresh = 2e-3 * diag
-    down = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points)).voxel_down_sample(diag / 150)
-    (a, b, c, d), _ = down.segment_plane(thresh, 3, 1000)
-    keep = np.abs(points @ np.array([a, b, c]) + d) / np.linalg.norm([a, b, c]) > thresh
-    rest = points[keep]
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(rest)).voxel_down_sample(diag / 150)
-    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=20))
-    nrm = np.asarray(cloud.normals)
-    axis = np.linalg.eigh(nrm.T @ nrm)[1][:, 0]
-    e1 = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
-    uv = np.asarray(cloud.points) @ np.column_stack([e1, e2])
-    from skimage.measure import CircleModel, ransac
-
-    model, _ = ransac(uv, CircleModel, 3, thresh, max_trials=500, rng=seed)
-    sol, r0 = np.asarray(model.center), float(model.radius)
-    o = float(np.mean(rest @ axis))
-    dist = np.abs(np.linalg.norm(rest @ np.column_stack([e1, e2]) - sol, axis=1) - r0)
-    rest = rest[dist < 3 * thresh]  # the points near the circle
-
-    def resid(x):
-        ax = axis + x[0] * e1 + x[1] * e2
-        ax /= np.linalg.norm(ax)
-        cen = (sol[0] + x[2]) * e1 + (sol[1] + x[3]) * e2 + o * axis
-        w = rest - cen
-        return np.linalg.norm(w - np.outer(w @ ax, ax), axis=1) - x[4]
-
-    x0 = np.array([0.0, 0.0, 0.0, 0.0, r0])
-    f_scale = 1.4826 * np.median(np.abs(resid(x0))) + 1e-9
-    res = least_squares(resid, x0, loss="soft_l1", f_scale=f_scale, x_scale="jac", max_nfev=50)
-    return float(res.x[4])
+from bench.recipe_cylinder import recipe_fit  # noqa: E402
 
 
 def pyransac3d_fit(points, thresh, iterations):
@@ -155,7 +121,8 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=3):
     from data_synthetic.scan_write import FORMATS, write_scan
 
     library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs", "glb": "trimesh",
-               "ply": "trimesh", "pts": "numpy", "xyz": "numpy", "txt": "numpy"}
+               "ply": "numpy (binary cloud)", "pts": "pandas", "xyz": "pandas", "txt": "pandas",
+               "pcd_ascii": "pandas", "pcd_binary": "numpy"}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -172,6 +139,58 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=3):
                          os.path.getsize(path) / 1e6, abs(radius - scan.radius) / scan.radius * 100))
     t_ply = rows[0][2]
     return [(f, lib, t, t / t_ply, mb, e) for f, lib, t, mb, e in rows]
+
+
+def process_rows(n, seed, kappa, arc_deg, repeats=5):
+    """Whole processes on an n-point binary PLY: ``airmat fit`` against the recipe as a script.
+
+    Both read the file themselves (airmat: calib.scan_io; the recipe: open3d)
+    and pay their own start-up (imports); they run alternately, ``repeats``
+    times each, in this one benchmark run. Returns
+    [(method, median s, min s, max s, radius error %)] and the ratio of the medians.
+    """
+    import json
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    from data_synthetic.scan_write import write_scan
+
+    root = Path(__file__).resolve().parent.parent
+    scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
+    env = dict(os.environ, PYTHONPATH=str(root) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = write_scan(Path(tmp) / "scan.ply", scan.points * 1e3, "ply", seed=seed)
+        commands = {"airmat fit": [sys.executable, "-m", "airmat", "fit", str(path)],
+                    "open3d + least_squares script": [sys.executable, str(root / "bench" / "recipe_cylinder.py"),
+                                                      str(path)],
+                    # the floor of any such script: its imports and the open3d read, no fit at all
+                    "script's imports + open3d read only": [
+                        sys.executable, "-c", "import json, sys, numpy as np, open3d as o3d, scipy.optimize, "
+                        "skimage.measure; from skimage.measure import CircleModel, ransac; "
+                        "np.asarray(o3d.io.read_point_cloud(sys.argv[1]).points); "
+                        "print(json.dumps({'radius_mm': float('nan')}))", str(path)]}
+        times = {k: [] for k in commands}
+        radius = {}
+        for r in range(repeats + 1):  # the first round warms the file cache and is not timed
+            for name, cmd in commands.items():
+                t0 = time.perf_counter()
+                out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True, cwd=tmp)
+                if r:
+                    times[name].append(time.perf_counter() - t0)
+                radius[name] = json.loads(out.stdout)["radius_mm"] / 1e3
+    rows = [(name, float(np.median(t)), float(np.min(t)), float(np.max(t)),
+             abs(radius[name] - scan.radius) / scan.radius * 100) for name, t in times.items()]
+    return rows, rows[0][1] / rows[1][1]
+
+
+def process_markdown(rows, ratio, n, repeats):
+    head = (f"Whole process on a {n:,}-point binary PLY (floor, clutter, grooves), {repeats} alternating "
+            f"runs each; airmat / script = {ratio:.2f}\n\n"
+            "| command | time median (s) | min (s) | max (s) | radius error (%) |\n"
+            "|---|---:|---:|---:|---:|\n")
+    return head + "".join(f"| {m} | {t:.2f} | {lo:.2f} | {hi:.2f} | {'-' if not np.isfinite(e) else f'{e:.4f}'} |\n"
+                          for m, t, lo, hi, e in rows)
 
 
 def format_markdown(rows, n):
@@ -207,6 +226,10 @@ def main(argv=None):
     p.add_argument("--no-peers", action="store_true", help="only airmat and the recipe")
     p.add_argument("--formats", type=int, default=0, metavar="N",
                    help="also time reading an N-point scan in every scanner format (0: skip)")
+    p.add_argument("--process", type=int, default=0, metavar="N",
+                   help="also time `airmat fit` and the recipe script as whole processes on an N-point "
+                        "binary PLY (0: skip)")
+    p.add_argument("--process-repeats", type=int, default=5, help="runs of each process")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     sizes = [int(s) for s in args.sizes.split(",") if s.strip() and int(s) > 0]
@@ -214,6 +237,9 @@ def main(argv=None):
         rows = run(sizes, args.repeats, args.seed, args.kappa, args.arc_deg, args.ransac_points,
                    args.ransac_iterations, args.cf_points, not args.no_peers)
         print(markdown(rows, args.repeats, args.kappa, args.arc_deg))
+    if args.process:
+        rows, ratio = process_rows(args.process, args.seed, args.kappa, args.arc_deg, args.process_repeats)
+        print(process_markdown(rows, ratio, args.process, args.process_repeats))
     if args.formats:
         print(format_markdown(format_rows(args.formats, args.seed, args.kappa, args.arc_deg), args.formats))
     return 0

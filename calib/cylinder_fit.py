@@ -5,9 +5,9 @@ The pipeline, each step in its own module:
 1. local noise from voxel roughness (:mod:`calib.scan_noise`), which sets
    every threshold (so they scale with the scanner, not bare constants);
 2. voxel downsampling that drops sparse clutter voxels
-   (:mod:`calib.voxel_grid`), normals (open3d), then the support plane(s)
-   the specimen rests on (:mod:`calib.support_plane`, open3d
-   ``segment_plane``), taking care that a flat specimen is not one;
+   (:mod:`calib.voxel_grid`), normals (:mod:`calib.point_normals`), then
+   the support plane(s) the specimen rests on (:mod:`calib.support_plane`,
+   a seeded RANSAC), taking care that a flat specimen is not one;
 3. axis from the scatter of the normals, circle by RANSAC (scikit-image)
    in the projection along it, or a quadratic height field for a nearly
    flat specimen (:mod:`calib.cylinder_init`);
@@ -40,15 +40,19 @@ from calib.cylinder_irls import kappa_standard_error, polish
 from calib.cylinder_lsq import arc_position, refine, residuals
 from calib.cylinder_refine import full_resolution_fit, surface_spread
 from calib.scan_noise import local_noise
-from calib.scan_prep import normals_knn, specimen_candidates, specimen_voxel
+from calib.point_normals import normals_knn
+from calib.scan_prep import specimen_candidates, specimen_voxel
 from calib.voxel_grid import voxel_cloud
 
-__all__ = ["CylinderFit", "fit_cylinder", "MIN_FIT_POINTS"]
+__all__ = ["CylinderFit", "fit_cylinder", "MIN_FIT_POINTS", "MAX_SPECIMEN_EXTENT"]
 
 log = logging.getLogger(__name__)
 
 #: fewest points fit_cylinder accepts
 MIN_FIT_POINTS = 50
+#: largest specimen surface (robust bounding diagonal of the fitted face, m): the paper's
+#: large mattress (2.6 m x 1.6 m) is 3.05 m across; a km survey tile read in mm is several m
+MAX_SPECIMEN_EXTENT = 4.0
 
 
 @dataclass(frozen=True)
@@ -130,7 +134,7 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
                  band_sigmas: float = 5.0, max_planarity: float = 0.3, remove_support: bool = True,
                  loss: str = "arctan", loss_sigmas: float = 2.0, groove_sigmas: float = 0.2,
                  n_subsample: int = 50_000, n_clusters: int = 24, quantization: float = 0.0,
-                 strict: bool = False) -> CylinderFit:
+                 max_extent: float = MAX_SPECIMEN_EXTENT, strict: bool = False) -> CylinderFit:
     """Fit a cylinder to a scan of a bent specimen, robustly.
 
     Parameters
@@ -177,6 +181,10 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         Step of the coordinates as the file stored them (m; 32-bit floats
         far from the origin, :attr:`calib.scan_io.Scan.quantization`):
         refused when it exceeds the noise, as the surface is then lost.
+    max_extent : float
+        Refuse when the fitted face (its inliers' robust bounding diagonal)
+        spans more than this (m): no specimen is that large, a survey tile
+        or a room read in the wrong unit is.
     strict : bool
         Raise :class:`airmat.errors.InputError` when the final least
         squares did not converge, instead of reporting it in the result.
@@ -219,7 +227,7 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     sigma = noise_level
     spread = surface_spread(cand_sub, stage.frame, sigma, band_sigmas, int(rng.integers(2**31)))
     if spread > 1.5 * sigma:
-        log.info("residual scale %.3g mm exceeds the local noise %.3g mm; using it",
+        log.debug("residual scale %.3g mm exceeds the local noise %.3g mm; using it",
                  spread * 1e3, sigma * 1e3)
         sigma = spread
     # a flat specimen keeps the footprint's axis: choosing the direction of largest
@@ -230,7 +238,7 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     fit = _summarize(cand, frame, final, used=used, n_points=len(pts), n_support=n_support,
                       noise=noise_level, sigma=sigma, n_iter=stage.n_iter + n_more, scatter=init.scatter,
                       inlier_sigmas=inlier_sigmas, min_inlier_fraction=min_inlier_fraction,
-                      max_rms_ratio=max_rms_ratio, max_rms_rel=max_rms_rel, loss=loss,
+                      max_rms_ratio=max_rms_ratio, max_rms_rel=max_rms_rel, max_extent=max_extent, loss=loss,
                       f_scale=loss_sigmas * sigma, n_clusters=n_clusters, noise_given=noise is not None)
     if strict and not fit.converged:
         raise InputError(f"cylinder fit did not converge ({fit.message}); the radius would be unreliable",
@@ -277,8 +285,8 @@ def _check_points(points) -> np.ndarray:
 
 
 def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n_iter, scatter,
-               inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, loss, f_scale, n_clusters,
-               noise_given=False):
+               inlier_sigmas, min_inlier_fraction, max_rms_ratio, max_rms_rel, max_extent, loss, f_scale,
+               n_clusters, noise_given=False):
     """Inliers, refusal checks, standard error, arc and centre: the CylinderFit.
 
     ``noise`` is the local noise, ``sigma`` the working residual scale (>= noise), both m.
@@ -296,6 +304,12 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
     rms = float(np.sqrt(np.mean(e[used] ** 2)))  # the fitted face, off the groove bands
     inl_sub = cand[inl][::stride]
     ext = float(np.linalg.norm(np.ptp(inl_sub, axis=0)))
+    lo, hi = np.percentile(inl_sub, [0.5, 99.5], axis=0)
+    span = float(np.linalg.norm(hi - lo))
+    if span > max_extent:
+        raise NotACylinderError(f"the fitted surface spans {span:.3g} m, more than any specimen (at most "
+                                f"{max_extent:g} m): a survey tile or a room? check the unit (--scan-units)",
+                                extent=span)
     if rms > max_rms_ratio * noise and rms > max_rms_rel * ext:
         hint = "" if noise_given else \
             f"; if the scanner is noisier than that estimate (stereo, RGB-D), pass --noise-mm {rms * 1e3:.2g}"

@@ -28,7 +28,7 @@ __all__ = ["fit_cylinder_stable"]
 log = logging.getLogger(__name__)
 
 
-def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int = 100_000,
+def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int = 50_000,
                         n_sigma: float = 3.0, max_spread_rel: float = 0.02, **options) -> CylinderFit:
     """:func:`calib.cylinder_fit.fit_cylinder` compared over ``n_seeds`` seeds.
 

@@ -1,4 +1,4 @@
-"""Scan preparation for the cylinder fit: normals, voxel sizes, and the points off the floor.
+"""Scan preparation for the cylinder fit: voxel sizes and the points off the floor.
 
 Lengths in metres.
 """
@@ -9,25 +9,16 @@ import logging
 
 import numpy as np
 
+from calib.point_normals import normals_knn
 from calib.support_plane import find_support_planes
 from calib.voxel_grid import voxel_cloud
 
-__all__ = ["normals_knn", "specimen_voxel", "specimen_candidates"]
+__all__ = ["specimen_voxel", "specimen_candidates"]
 
 log = logging.getLogger(__name__)
 
 #: fewest coarse voxels the plane search needs
 _MIN_VOXELS = 50
-
-
-def normals_knn(points: np.ndarray, knn: int = 20) -> np.ndarray:
-    """Unit normals of a downsampled cloud from its ``knn`` nearest neighbours (open3d)."""
-    import open3d as o3d
-
-    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=knn))
-    return np.asarray(cloud.normals)
 
 
 def specimen_voxel(n_cand, n_cand_sub, density, sigma, fill=20.0, max_voxels=15_000) -> float:

@@ -1,7 +1,7 @@
 """Find the plane(s) a specimen rests on (floor, table) so the cylinder fit can ignore them.
 
-Planes are found one after another with open3d's RANSAC
-(``segment_plane``) on a downsampled cloud and refined by least squares
+Planes are found one after another by a seeded RANSAC
+(:func:`calib.plane_ransac.segment_plane`) on a downsampled cloud and refined by least squares
 on their inliers. Not every plane RANSAC finds is a support:
 
 - the slab a plane cuts out of a *curved* specimen around a tangent line
@@ -37,6 +37,8 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+
+from calib.plane_ransac import segment_plane
 
 __all__ = ["Plane", "SupportPlanes", "find_support_planes"]
 
@@ -158,15 +160,12 @@ def find_support_planes(points: np.ndarray, *, threshold: float, normals: np.nda
     n_iterations : int
         RANSAC iterations per plane.
     seed : int
-        Seed of open3d's RANSAC.
+        Seed of the RANSAC.
 
     Returns
     -------
     SupportPlanes
     """
-    import open3d as o3d
-
-    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
     pts = np.asarray(points, dtype=float)
     n = len(pts)
     free = np.ones(n, dtype=bool)
@@ -175,9 +174,8 @@ def find_support_planes(points: np.ndarray, *, threshold: float, normals: np.nda
         idx = np.flatnonzero(free)
         if len(idx) < max(3, min_fraction * n):
             break
-        o3d.utility.random.seed(int(np.random.default_rng(seed).integers(2**31)) + k)
-        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts[idx]))
-        _, inl = cloud.segment_plane(float(threshold), 3, int(n_iterations))
+        inl = segment_plane(pts[idx], float(threshold), int(n_iterations),
+                            seed=int(np.random.default_rng(seed).integers(2**31)) + k)
         if len(inl) < min_fraction * n:
             break
         sel = np.zeros(n, dtype=bool)
@@ -201,8 +199,8 @@ def _refine(all_pts: np.ndarray, free: np.ndarray, sel: np.ndarray, t: float, no
     """Least-squares plane through the inliers, with its bend ratio and footprint.
 
     Refit until the inliers (free points within ``t``) stop changing: the
-    result no longer depends on which inliers open3d's multi-threaded
-    RANSAC happened to return.
+    result no longer depends on which near-best trial RANSAC happened to
+    return.
     """
     for _ in range(10):
         inliers = all_pts[sel]

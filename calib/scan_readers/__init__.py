@@ -4,16 +4,16 @@ Each reader module holds one function ``read(path, *, scan_index) -> RawCloud``
 built on a well-kept library; :func:`read_cloud` imports only the reader the
 file needs (an ``airmat fit`` of a PLY loads no pye57 or laspy).
 
-========================  ====================  =========================================
+========================  ====================  ============================================================
 suffix                    reader module         library
-========================  ====================  =========================================
-.ply .obj .stl .off       ``mesh_reader``       trimesh
+========================  ====================  ============================================================
+.ply .obj .stl .off       ``mesh_reader``       trimesh; binary PLY point clouds: numpy
 .glb .gltf                ``mesh_reader``       trimesh (scenes with their node poses)
 .e57                      ``e57_reader``        pye57 (one scan, or all with their poses)
 .las .laz                 ``las_reader``        laspy with the lazrs LAZ backend
-.pcd                      ``pcd_reader``        open3d (ascii, binary, binary_compressed)
-.pts .xyz .txt            ``text_reader``       numpy (columns, optional header/count line)
-========================  ====================  =========================================
+.pcd                      ``pcd_reader``        pandas (ascii); open3d (binary, binary_compressed)
+.pts .xyz .txt            ``text_reader``       pandas, numpy fallback (columns, optional header/count line)
+========================  ====================  ============================================================
 """
 
 from __future__ import annotations

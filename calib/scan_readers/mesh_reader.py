@@ -1,4 +1,7 @@
-"""PLY (points or mesh, any encoding), OBJ, STL, OFF, GLB and glTF through trimesh."""
+"""PLY (points or mesh, any encoding), OBJ, STL, OFF, GLB and glTF through trimesh.
+
+Binary PLY point clouds are read with numpy (:mod:`calib.scan_readers.ply_points`).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +13,7 @@ import numpy as np
 
 from airmat.errors import InputError
 from calib.scan_readers.ply_header import check_ply_complete, ply_vertex_float32
+from calib.scan_readers.ply_points import read_binary_points
 from calib.scan_readers.raw import RawCloud, library_message
 
 __all__ = ["read"]
@@ -21,6 +25,9 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     float32 = suffix in (".stl", ".glb", ".gltf")  # these formats store 32-bit floats only
     if suffix == ".ply":
         check_ply_complete(path)
+        cloud = read_binary_points(path)  # a scanner's binary point cloud: numpy, no trimesh
+        if cloud is not None:
+            return cloud
         float32 = ply_vertex_float32(path)
     geometry = _load(path, suffix)
     vertices, faces = _vertices_faces(geometry, path)

@@ -215,3 +215,118 @@ def test_seeds_agree_on_a_clean_scan(spec):
     fit = fit_cylinder_stable(spec.points, seed=0, n_seeds=3)
     assert fit.n_seeds == 3 and fit.kappa_spread < 3 * fit.kappa_se * 1.5
     assert fit.kappa_se == fit_cylinder(spec.points, seed=0).kappa_se  # not widened
+
+
+@pytest.mark.parametrize("fmt", ["pts", "xyz", "txt"])
+def test_fast_text_read_is_bit_identical_to_loadtxt(tmp_path, spec, fmt):
+    from calib.scan_readers import read_cloud
+
+    path = write_scan(tmp_path / f"s.{fmt}", spec.points[:3000] * 1e3, fmt)
+    skip, delim = {"pts": (1, None), "xyz": (0, None), "txt": (1, ",")}[fmt]
+    ref = np.loadtxt(path, skiprows=skip, delimiter=delim, usecols=(0, 1, 2))
+    got = read_cloud(path).vertices
+    assert got.dtype == np.float64 and np.array_equal(got, ref)
+
+
+def test_text_rows_pandas_refuses_go_to_loadtxt(tmp_path):
+    from calib.scan_readers import read_cloud
+    from calib.scan_readers.text_reader import read_columns_fast
+
+    path = tmp_path / "n.xyz"
+    path.write_text("1 2 3\nnan 5 6\n7 8 9\n")  # nan: loadtxt reads it, the caller drops it
+    with open(path, "rb") as fh:
+        assert read_columns_fast(fh, 0, None) is None
+    got = read_cloud(path).vertices
+    assert np.isnan(got[1, 0]) and got[2].tolist() == [7.0, 8.0, 9.0]
+    short = tmp_path / "short.xyz"
+    short.write_text("1 2 3\n4 5\n7 8 9\n")  # never a silently filled value
+    with pytest.raises(InputError, match="cannot parse XYZ columns"):
+        read_cloud(short)
+
+
+def test_ascii_pcd_read_as_open3d_reads_it(tmp_path, spec):
+    from calib.scan_readers import pcd_reader
+
+    pts = spec.points[:4000] * 1e3
+    pts[::9] = np.nan
+    path = write_scan(tmp_path / "a.pcd", pts, "pcd_ascii")
+    got = pcd_reader.read(path).vertices
+    assert np.array_equal(got, pcd_reader._read_open3d(path), equal_nan=True)
+    odd = tmp_path / "odd.pcd"  # x y z not first nor in order, a field with COUNT 2
+    odd.write_text("VERSION 0.7\nFIELDS rgb normal z x y\nSIZE 4 4 4 4 4\nTYPE F F F F F\nCOUNT 1 2 1 1 1\n"
+                   "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n9 0 0 3 1 2\n9 0 0 6 4 5\n")
+    assert pcd_reader.read(odd).vertices.tolist() == [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
+
+
+@pytest.mark.parametrize("encoding", ["binary_little_endian", "binary_big_endian"])
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_binary_ply_cloud_read_by_numpy_as_trimesh_reads_it(tmp_path, spec, encoding, dtype):
+    import trimesh
+
+    from calib.scan_readers.ply_points import read_binary_points
+
+    pts = spec.points[:2000] * 1e3
+    path = tmp_path / "c.ply"
+    write_ply(path, pts, encoding=encoding, dtype=dtype, colors=np.zeros((len(pts), 3), np.uint8))
+    got = read_binary_points(path)
+    assert got is not None and got.float32 == (dtype == "float32")
+    assert np.array_equal(got.vertices, np.asarray(trimesh.load(path, process=False).vertices, float))
+    mesh = tmp_path / "m.ply"
+    trimesh.creation.box().export(mesh, encoding="binary")
+    assert read_binary_points(mesh) is None  # faces: trimesh reads it
+    ascii_ = tmp_path / "a.ply"
+    write_ply(ascii_, pts, encoding="ascii")
+    assert read_binary_points(ascii_) is None
+
+
+def test_km_survey_tile_read_in_mm_is_refused(tmp_path):
+    """A 4 km terrain tile in metres, read in the default mm, is 4 m across: no specimen is."""
+    rng = np.random.default_rng(0)
+    n = 60_000
+    xy = rng.uniform(0, 4000, (n, 2))
+    z = 15 * np.sin(xy[:, 0] / 700) + 8 * np.cos(xy[:, 1] / 900) + rng.normal(0, 0.05, n)
+    path = tmp_path / "tile.xyz"
+    np.savetxt(path, np.column_stack([xy + [512000, 5400000], z + 300]), fmt="%.3f")
+    scan = read_scan(path)  # passes the read: 5.7 m is a plausible scan (a room)
+    with pytest.raises(NotACylinderError, match="spans 5.* m, more than any specimen"):
+        fit_cylinder(scan.points, seed=0)
+    same = fit_cylinder(scan.points * 0.5, seed=0)  # the same surface at 2.8 m: a fit (a gentle cylinder)
+    assert same.n_inliers > 0.5 * n
+
+
+def test_km_survey_tile_cli_exit_2(tmp_path, capsys):
+    from airmat.cli import main
+
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(0, 5000, (30_000, 2))
+    z = 10 * np.sin(xy[:, 0] / 900) + rng.normal(0, 0.05, len(xy))
+    path = tmp_path / "tile.xyz"
+    np.savetxt(path, np.column_stack([xy, z]), fmt="%.3f")
+    assert main(["fit", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(path) in err[0] and "more than any specimen" in err[0]
+
+
+def test_binary_pcd_read_by_numpy_as_open3d_reads_it(tmp_path, spec):
+    from calib.scan_readers import pcd_reader
+
+    pts = spec.points[:4000] * 1e3
+    pts[::9] = np.nan
+    path = write_scan(tmp_path / "b.pcd", pts, "pcd_binary")
+    got = pcd_reader._read_binary(path, pcd_reader._header(path))
+    assert got is not None and np.array_equal(got, pcd_reader._read_open3d(path), equal_nan=True)
+    # PCL's layout: padding "_" fields, a field with COUNT 3, x y z not first
+    rec = np.dtype([("rgb", "<f4"), ("n", "<f4", (3,)), ("_", "<u1", (4,)), ("z", "<f8"), ("x", "<f8"),
+                    ("y", "<f8"), ("_2", "<u1", (4,))])
+    body = np.zeros(3, rec)
+    body["x"], body["y"], body["z"] = [1, 4, 7], [2, 5, 8], [3, 6, 9]
+    head = ("VERSION 0.7\nFIELDS rgb normal _ z x y _\nSIZE 4 4 1 8 8 8 1\nTYPE F F U F F F U\n"
+            "COUNT 1 3 4 1 1 1 4\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA binary\n").encode()
+    odd = tmp_path / "odd.pcd"
+    odd.write_bytes(head + body.tobytes())
+    raw = pcd_reader.read(odd)
+    assert raw.vertices.tolist() == [[1, 2, 3], [4, 5, 6], [7, 8, 9]] and not raw.float32
+    cut = tmp_path / "cut.pcd"
+    cut.write_bytes(head + body.tobytes()[:-10])
+    with pytest.raises(InputError, match="truncated or corrupt"):
+        read_scan(cut)
