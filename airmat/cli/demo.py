@@ -138,7 +138,8 @@ def run(args) -> int:
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
         text = summary(out, cal, cs.truth, result, checked, seconds)
-        write_report(tmp, calibration=cal, design=result, check=checked, summary=text,
+        page_text = "\n".join(ln for ln in text.splitlines() if not ln.lstrip().startswith("time "))
+        write_report(tmp, calibration=cal, design=result, check=checked, summary=page_text,
                      title=f"airmat demo: {args.preset}")
     print(text)
     return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)
