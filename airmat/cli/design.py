@@ -142,7 +142,7 @@ def summary_text(doc: dict, out) -> str:
     if flagged:
         lines.append(f"  {flagged} strings beyond reach of the calibration (flagged in design.json)")
     lines.append(f"  wrote design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, cutting_list.csv, "
-                 f"preview.png, design.3dm to {out}")
+                 f"preview.png, design.3dm, report.html to {out}")
     return "\n".join(lines)
 
 
