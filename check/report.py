@@ -7,7 +7,8 @@ and a third panel of deviation.png, the 95 % band.
 ``inflated.3dm`` is the design's Rhino file (:mod:`design.export.rhino`) with the
 inflated shapes added: each run's mid-surface at Ŝ's vertices after the Kabsch
 alignment of the check (``CheckRun.deviation.aligned``), i.e. in Ŝ's frame, on
-layers ``inflated::median`` (visible), ``inflated::lo95`` and ``inflated::hi95`` (hidden).
+layers ``inflated::median`` (visible), ``inflated::lo95`` and ``inflated::hi95`` (hidden);
+with a Monte-Carlo, Ŝ coloured by the 95 % quantile on the hidden layer ``monte_carlo::p95``.
 
 ``inflate.json``'s ``deviation {rms_mm, max_mm, rms_pct_diag}`` is measured on the named
 face (``deviation.surface``, see :mod:`check.compare`), with every face under
@@ -204,7 +205,8 @@ def write_check(check, folder) -> dict:
     atomic_write_bytes(folder / "inflated.ply", trimesh.exchange.ply.export_ply(mesh, encoding="binary"))
     a = check.design.approx
     write_3dm(folder / "inflated.3dm", document(check.design), a.xyz, a.uv, a.faces,
-              shapes={k: r.deviation.aligned for k, r in check.runs.items()})
+              shapes={k: r.deviation.aligned for k, r in check.runs.items()},
+              band=None if check.monte_carlo is None else check.monte_carlo.per_vertex_q[1])
     save_png(deviation_figure(check), folder / "deviation.png", dpi=110)
     if check.monte_carlo is not None:
         write_bands(check, folder / "inflated_bands.ply")

@@ -1,5 +1,8 @@
 """The check part of the report: Ŝ and the inflated shape overlaid in 3D, the envelope, realized κ per dash.
 
+With a Monte-Carlo (``check.monte_carlo``): Ŝ coloured by each vertex's 95 % deviation
+quantile over the samples, and a table of the samples' statistics.
+
 Built from a :class:`check.inflation_check.DesignCheck` in memory (SI), shown in mm and 1/m.
 """
 
@@ -14,7 +17,7 @@ from report.mesh import display_grid, mesh3d_trace
 from report.page import Part, figure_html
 from report.table import html_table
 
-__all__ = ["overlay_figure", "curvature_figure", "check_part"]
+__all__ = ["overlay_figure", "curvature_figure", "band_figure", "monte_carlo_table", "check_part"]
 
 _RUN_MARK = {"median": ("circle", "rgb(31,119,180)"), "lo95": ("triangle-down", "rgb(44,160,44)"),
              "hi95": ("triangle-up", "rgb(255,127,14)")}
@@ -34,6 +37,69 @@ def overlay_figure(check) -> dict:
               "title": {"text": f"inflated mid-surface over Ŝ: RMS {dev.rms * M_TO_MM:.1f} mm, "
                                 f"max {dev.max * M_TO_MM:.1f} mm; drag to rotate"}}
     return {"data": [s_hat, inflated], "layout": layout}
+
+
+def band_figure(check) -> dict:
+    """Ŝ coloured by the 95 % quantile over the Monte-Carlo samples of each vertex's deviation (mm).
+
+    Parameters
+    ----------
+    check : check.inflation_check.DesignCheck
+        With ``monte_carlo`` (its ``per_vertex_q`` of shape (2, n) on Ŝ's n vertices, m).
+
+    Returns
+    -------
+    dict
+        A plotly figure: one ``mesh3d`` trace on the decimated display grid (mm).
+    """
+    a, mc = check.design.approx, check.monte_carlo
+    keep, faces = display_grid(a.uv, a.faces)
+    q95 = mc.per_vertex_q[1][keep] * M_TO_MM
+    trace = mesh3d_trace(a.xyz[keep], faces, intensity=q95, name="Ŝ, 95 % deviation quantile",
+                         colorscale="Viridis", colorbar_title="95 % quantile of deviation (mm)",
+                         hover="95 % quantile %{intensity:.1f} mm")
+    layout = {"scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
+                        "yaxis": {"title": {"text": "y (mm)"}}, "zaxis": {"title": {"text": "z (mm)"}}},
+              "legend": {"x": 0, "y": 1},
+              "title": {"text": f"Monte-Carlo band, {mc.draws.n} samples: 95 % of the built shapes deviate "
+                                f"from Ŝ by at most this much (max {float(q95.max()) if q95.size else 0.0:.1f} mm)"}}
+    return {"data": [trace], "layout": layout}
+
+
+def monte_carlo_table(check, *, top: int = 10) -> tuple:
+    """Two HTML tables of ``check.monte_carlo``: its statistics (mm), and the ``top`` most sensitive strings.
+
+    Returns
+    -------
+    (str, str)
+        The statistics table (samples, seed, σ source, converged runs, RMS median and 95th percentile
+        with bootstrap standard errors, P(RMS ≤ T) when a tolerance was given) and the strings' table
+        (id, face, Pearson correlation of its curvature change with the run's RMS).
+    """
+    mc, strings = check.monte_carlo, check.design.pattern.strings
+    st = mc.stats()
+    rows = [["samples", mc.draws.n], ["seed", mc.draws.seed], ["σ source", mc.draws.sigma_source],
+            ["converged runs", f"{int(mc.converged.sum())} of {mc.converged.size}"],
+            ["RMS median (mm)", f"{st['rms_median'] * M_TO_MM:.2f} ± {st['rms_median_se'] * M_TO_MM:.2f}"],
+            ["RMS 95th percentile (mm)", f"{st['rms_p95'] * M_TO_MM:.2f} ± {st['rms_p95_se'] * M_TO_MM:.2f}"]]
+    if mc.tolerance is not None:
+        rows.append([f"P(RMS ≤ {mc.tolerance * M_TO_MM:g} mm)", f"{st['p_within']:.3f} ± {st['p_within_se']:.3f}"])
+    stats = html_table(["statistic", "value (± bootstrap standard error)"], rows, table_id="monte-carlo-stats")
+    idx, corr = mc.sensitive(top)
+    sens = html_table(["string", "face", "correlation with RMS"],
+                      [[strings[i].dash.id, strings[i].side, f"{c:+.3f}"] for i, c in zip(idx, corr)],
+                      sortable=True, table_id="monte-carlo-strings")
+    return stats, sens
+
+
+def _monte_carlo_html(check) -> str:
+    stats, sens = monte_carlo_table(check)
+    return ("<h3>Monte-Carlo: the 95 % deviation band</h3>\n"
+            + figure_html(band_figure(check), "check-band", height=620) + stats
+            + "<p>The strings whose curvature scatter moves the shape most (Pearson r over the samples between "
+              "the string's curvature change and the run's RMS; standard error about 1/√samples):</p>\n"
+            + (sens if check.monte_carlo.sensitive(1)[0].size else
+               "<p>None ranked: it needs 3 or more samples whose RMS varies.</p>\n"))
 
 
 def curvature_figure(check) -> dict:
@@ -102,4 +168,6 @@ def check_part(check, *, with_design_banner: bool = True) -> Part:
     if d.pattern.strings:
         body += ("<h3>Realized against target curvature per dash</h3>\n"
                  + figure_html(curvature_figure(check), "check-curvature", height=480))
+    if check.monte_carlo is not None:
+        body += _monte_carlo_html(check)
     return Part("Inflation check", body, tuple(banners))

@@ -12,6 +12,9 @@ Layers (full paths; ``FACE/FAMILY`` is ``top/k1``, ``top/k2``, ``bottom/k1``, ``
     omega::ties               the tie points on Ω
     inflated::median          (inflated.3dm) the simulated median shape aligned to Ŝ, on Ŝ's triangles
     inflated::lo95, ::hi95    (inflated.3dm) the envelope shapes, on hidden layers
+    monte_carlo::p95          (inflated.3dm with a Monte-Carlo) Ŝ with vertex colours of each vertex's 95 %
+                              deviation quantile over the samples (viridis, :func:`band_colours`), on a
+                              hidden layer; its user text gives the scale's ends in mm
 
 Every string curve is named by its id and carries the user text of :data:`STRING_KEYS`
 (lengths in mm, κ in 1/m, face, family, and the grid nodes of its ends when the
@@ -37,7 +40,8 @@ from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
 
-__all__ = ["lift_to_surface", "lift_to_face", "rhino_model", "write_3dm", "STRING_KEYS", "FACE_FAMILIES"]
+__all__ = ["lift_to_surface", "lift_to_face", "band_colours", "rhino_model", "write_3dm", "STRING_KEYS",
+           "FACE_FAMILIES"]
 
 FACE_FAMILIES = ("top/k1", "top/k2", "bottom/k1", "bottom/k2")
 #: user text of every string curve
@@ -140,6 +144,42 @@ def _mesh(xyz_mm: np.ndarray, faces: np.ndarray):
     return mesh
 
 
+def band_colours(values: np.ndarray) -> tuple:
+    """Viridis colours of ``values`` on a linear scale from their minimum to their maximum.
+
+    Parameters
+    ----------
+    values : ndarray of shape (n,)
+
+    Returns
+    -------
+    colours : ndarray of shape (n, 3) of uint8
+        RGB; all the lowest colour when the values do not vary.
+    lo, hi : float
+        The values at the scale's ends.
+
+    Examples
+    --------
+    >>> c, lo, hi = band_colours(np.array([2.0, 4.0, 3.0]))
+    >>> c[0].tolist(), c[1].tolist(), (lo, hi)
+    ([68, 1, 84], [253, 231, 37], (2.0, 4.0))
+    """
+    from matplotlib import colormaps
+
+    values = np.asarray(values, float).reshape(-1)
+    lo, hi = (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
+    t = (values - lo) / (hi - lo) if hi > lo else np.zeros_like(values)
+    rgb = colormaps["viridis"](t)[:, :3]
+    return np.round(rgb * 255).astype(np.uint8), lo, hi
+
+
+def _band_mesh(xyz_mm: np.ndarray, faces: np.ndarray, colours: np.ndarray):
+    mesh = _mesh(xyz_mm, faces)
+    for c in colours.tolist():              # rhino3dm has no bulk setter
+        mesh.VertexColors.Add(*c)
+    return mesh
+
+
 def _polyline(points) :
     import rhino3dm as r
 
@@ -203,7 +243,8 @@ def lift_to_face(points_uv: np.ndarray, sign: np.ndarray, xyz: np.ndarray, uv: n
     return base + (0.5 * thickness * sign)[:, None] * n
 
 
-def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *, shapes: dict | None = None):
+def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *, shapes: dict | None = None,
+                band: np.ndarray | None = None):
     """A ``rhino3dm.File3dm`` of a design (see the module docstring for its layers).
 
     Parameters
@@ -218,6 +259,9 @@ def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *
     shapes : dict of str -> ndarray of shape (n, 3), optional
         Inflated shapes at Ŝ's vertices, aligned to Ŝ (m), e.g. ``{"median": ..., "lo95": ...}``;
         each becomes a mesh on Ŝ's triangles on layer ``inflated::KEY`` (only ``median`` visible).
+    band : ndarray of shape (n,), optional
+        The 95 % quantile of each Ŝ vertex's deviation over Monte-Carlo samples (m): Ŝ coloured by it
+        on the hidden layer ``monte_carlo::p95``.
 
     Returns
     -------
@@ -266,11 +310,21 @@ def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *
                            visible=key == "median")
             model.Objects.AddMesh(_mesh(np.asarray(shape) * M_TO_MM, faces),
                                   _attributes(layer, f"inflated {key}", {"strings_at": key}))
+    if band is not None:
+        colours, lo, hi = band_colours(np.asarray(band, float) * M_TO_MM)
+        layer = _layer(model, "p95", (150, 150, 150), _layer(model, "monte_carlo", (150, 150, 150)),
+                       visible=False)
+        text = {"quantity": "95 % quantile over the Monte-Carlo samples of the vertex's deviation from the "
+                            "inflated shape (mm)",
+                "colour_scale": "viridis, linear", "colour_low_mm": f"{lo:.2f}", "colour_high_mm": f"{hi:.2f}",
+                "colour_low_rgb": ",".join(map(str, band_colours([0.0, 1.0])[0][0].tolist())),
+                "colour_high_rgb": ",".join(map(str, band_colours([0.0, 1.0])[0][1].tolist()))}
+        model.Objects.AddMesh(_band_mesh(xyz * M_TO_MM, faces, colours), _attributes(layer, "monte_carlo p95", text))
     return model
 
 
 def write_3dm(path, doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *,
-              shapes: dict | None = None) -> None:
+              shapes: dict | None = None, band: np.ndarray | None = None) -> None:
     """Write ``design.3dm`` (or ``inflated.3dm`` with ``shapes``) through :mod:`airmat.atomic`.
 
     Parameters are those of :func:`rhino_model`.
@@ -280,7 +334,7 @@ def write_3dm(path, doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarra
     airmat.errors.InputError
         rhino3dm could not write the file.
     """
-    model = rhino_model(doc, xyz, uv, faces, shapes=shapes)
+    model = rhino_model(doc, xyz, uv, faces, shapes=shapes, band=band)
     with tempfile.TemporaryDirectory(prefix="airmat-3dm-") as tmp:
         tmp_path = Path(tmp) / "model.3dm"
         if not model.Write(str(tmp_path), 8):

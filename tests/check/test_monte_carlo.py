@@ -93,3 +93,31 @@ def test_the_check_of_a_collapsed_posterior_equals_its_median_run(small):
     assert mc.per_vertex_q[1].tobytes() == med.deviation.per_vertex.tobytes()
     assert mc.stats()["rms_p95_se"] == 0.0 and mc.stats()["p_within"] == float(med.deviation.rms <= 0.05)
     assert mc.sensitive()[0].size == 0          # no spread: no string moves the shape
+
+
+def test_a_check_with_samples_puts_its_band_in_inflated_3dm_and_the_report(small, tmp_path):
+    """The API end to end: check(samples=K) -> write_check's inflated.3dm layer and report.html's band."""
+    import rhino3dm
+
+    from check.report import write_check
+    from design.export.rhino import band_colours
+    from report.page import report_html
+
+    res = check(_spread(small), resolution=0.05, envelope=False, samples=6, seed=5, tolerance=0.05)
+    q95 = res.monte_carlo.per_vertex_q[1]
+    assert np.ptp(q95) > 0
+    write_check(res, tmp_path)
+    model = rhino3dm.File3dm.Read(str(tmp_path / "inflated.3dm"))
+    layers = {model.Layers.FindIndex(i).Index: model.Layers.FindIndex(i) for i in range(len(model.Layers))}
+    (obj,) = [o for o in model.Objects if layers[o.Attributes.LayerIndex].FullPath == "monte_carlo::p95"]
+    assert not layers[obj.Attributes.LayerIndex].Visible
+    mesh = obj.Geometry
+    got = np.array([tuple(mesh.VertexColors[i])[:3] for i in range(mesh.VertexColors.Count)])
+    np.testing.assert_array_equal(got, band_colours(q95 * 1000)[0])
+    pts = np.array([[p.X, p.Y, p.Z] for p in mesh.Vertices])
+    np.testing.assert_allclose(pts, small.approx.xyz * 1000, atol=1e-3)           # Ŝ itself
+    text = dict(obj.Attributes.GetUserStrings())
+    assert float(text["colour_high_mm"]) == pytest.approx(q95.max() * 1000, abs=0.006)
+    html = report_html(check=res)
+    assert html.count('Plotly.newPlot("check-band"') == 1 and 'id="monte-carlo-stats"' in html
+    assert "<td>samples</td><td>6</td>" in html and 'id="monte-carlo-strings"' in html

@@ -111,3 +111,34 @@ def test_inflated_shapes_on_hidden_layers(tmp_path):
     med = objs["inflated::median"][0].Geometry
     assert len(med.Vertices) == len(xyz)
     assert med.Vertices[0].Z == pytest.approx((xyz[0, 2] + 0.001) * 1000, abs=1e-3)
+
+
+def test_monte_carlo_band_on_a_hidden_layer_with_vertex_colours(tmp_path, design_3dm):
+    from design.export.rhino import band_colours
+
+    doc, _ = _document()
+    xyz, uv, faces = _cylinder_surface()
+    band = np.linspace(0.002, 0.012, len(xyz))                      # m: 2 .. 12 mm
+    write_3dm(tmp_path / "inflated.3dm", doc, xyz, uv, faces, shapes={"median": xyz}, band=band)
+    model = rhino3dm.File3dm.Read(str(tmp_path / "inflated.3dm"))
+    layers = _layers(model)
+    assert not layers["monte_carlo::p95"].Visible
+    (obj,) = _by_layer(model)["monte_carlo::p95"]
+    mesh = obj.Geometry
+    assert len(mesh.Vertices) == len(xyz) and mesh.VertexColors.Count == len(xyz)
+    got = np.array([tuple(mesh.VertexColors[i])[:3] for i in range(len(xyz))])
+    want, lo, hi = band_colours(band * 1000)
+    np.testing.assert_array_equal(got, want)
+    assert got[0].tolist() == [68, 1, 84] and got[-1].tolist() == [253, 231, 37]   # viridis ends
+    text = dict(obj.Attributes.GetUserStrings())
+    assert float(text["colour_low_mm"]) == pytest.approx(2.0) and float(text["colour_high_mm"]) == pytest.approx(12.0)
+    assert text["colour_low_rgb"] == "68,1,84" and text["colour_high_rgb"] == "253,231,37"
+    # without a band: no such layer
+    assert not any(k.startswith("monte_carlo") for k in _layers(design_3dm[2]))
+
+
+def test_band_colours_of_constant_values_are_the_low_end():
+    from design.export.rhino import band_colours
+
+    c, lo, hi = band_colours(np.full(4, 3.0))
+    assert (lo, hi) == (3.0, 3.0) and c.tolist() == [[68, 1, 84]] * 4

@@ -84,3 +84,55 @@ def test_a_large_mattress_stays_under_10_mb(run_objects):
     # the 3D traces hold the decimated grid, not all 42k vertices
     n_x = [len(m.group(1).split(",")) for m in re.finditer(r'"type":"mesh3d","name":"[^"]*","x":\[([^\]]*)\]', html)]
     assert len(n_x) == 3 and max(n_x) <= 12_000
+
+
+class _Dev:
+    def __init__(self, rms, per):
+        self.rms, self.per_vertex = rms, per
+
+
+def _with_monte_carlo(checked, *, n=40, seed=3):
+    """The check with a Monte-Carlo result summarized from made-up per-vertex deviations (seeded)."""
+    from check.monte_carlo import MonteCarloDraws, summarize
+
+    rng = np.random.default_rng(seed)
+    k, nv = len(checked.design.pattern.strings), len(checked.design.approx.xyz)
+    kappa = rng.normal(0, 1, (n, k))
+    rms = 0.01 + 0.002 * kappa[:, 5] + 0.0002 * rng.normal(size=n)          # string 5 drives the RMS
+    per = rng.uniform(0, 0.02, (n, nv))
+    dr = MonteCarloDraws(seed=seed, delta=np.zeros(n), d=np.zeros(n), sigma=np.ones(n), kappa=kappa,
+                         kappa_median=np.zeros(k), length=kappa, rest=kappa, sigma_source="posterior")
+    mc = summarize(dr, [_Dev(r, p) for r, p in zip(rms, per)], tolerance=0.011)
+    return dataclasses.replace(checked, monte_carlo=mc)
+
+
+def test_the_monte_carlo_band_and_its_statistics_are_on_the_page(run_objects):
+    from report.mesh import display_grid
+
+    _, result, checked = run_objects
+    assert 'id="check-band"' not in report_html(check=checked)          # no Monte-Carlo, no band
+    with_mc = _with_monte_carlo(checked)
+    mc = with_mc.monte_carlo
+    html = report_html(check=with_mc)
+    assert html.count('Plotly.newPlot("check-band"') == 1
+    # the figure's colour is the 95 % quantile (mm) at the displayed vertices
+    from report.check import band_figure, monte_carlo_table
+
+    trace = band_figure(with_mc)["data"][0]
+    keep, _ = display_grid(result.approx.uv, result.approx.faces)
+    np.testing.assert_allclose(trace["intensity"], mc.per_vertex_q[1][keep] * 1000, atol=0.01)
+    assert len(trace["x"]) == len(keep)
+    assert "95 % quantile of deviation (mm)" in html
+    # the statistics table: samples, seed, RMS median / p95 with standard errors, P(RMS <= T)
+    st = mc.stats()
+    stats = html[html.index('id="monte-carlo-stats"'):].split("</table>")[0]
+    assert "<td>samples</td><td>40</td>" in stats and "<td>seed</td><td>3</td>" in stats
+    assert f"{st['rms_median'] * 1000:.2f} ± {st['rms_median_se'] * 1000:.2f}" in stats
+    assert f"{st['rms_p95'] * 1000:.2f} ± {st['rms_p95_se'] * 1000:.2f}" in stats
+    assert f"P(RMS ≤ 11 mm)</td><td>{st['p_within']:.3f} ± {st['p_within_se']:.3f}" in stats
+    # the ten most sensitive strings, string 5 first
+    strings = html[html.index('id="monte-carlo-strings"'):].split("</table>")[0]
+    assert strings.count("<tr>") == 1 + 10
+    first = strings.split("<tbody>")[1]
+    assert first.startswith(f"<tr><td>{result.pattern.strings[5].dash.id}</td>")
+    assert monte_carlo_table(with_mc)[1] in html
