@@ -1,9 +1,13 @@
 """``preview.png``: the pattern on Ω coloured by string length, and Ŝ coloured by σ.
 
-Left: Ω (mm), top-face strings solid, bottom-face strings dashed, coloured
-by the median string length (colour bar in mm), each outlined in black for
-contrast, with black tie dots and its id beside it (the font shrinks with
-the number of strings, legible at 150). Right: Ŝ in 3D (mm), each triangle
+Left, over most of the width and at Ω's aspect: Ω (mm), top-face strings
+solid, bottom-face strings dashed, coloured by the median string length
+(colour bar in mm), each outlined in black for contrast, with black tie dots
+and its id beside it, along its chord. Ids are placed where they fit: each
+takes the first spot along its string where it overlaps no other id
+(:func:`place_labels`, greedy, the first dash of each line first), and the
+title says how many are shown (all are in ``cutting_list.csv``); the legend
+sits below the panel. Right: Ŝ in 3D (mm), each triangle
 coloured by σ, the mean ratio of its edge lengths on Ŝ to those on Ω (1 = no
 stretch), on a range symmetric about 1 that holds the triangles' σ and the
 report's edge σ min and max (:func:`sigma_limits`). :func:`preview_figure` returns the
@@ -224,7 +228,7 @@ def _surface_axes(fig, ax, cax, xyz, uv, faces, report):
     edges = (f"edge sigma min {sig['min']:.4f} / avg {sig['avg']:.4f} / max {sig['max']:.4f}"
              if {"min", "avg", "max"} <= set(sig) else "")
     verdict = "constructible" if report.get("constructible") else "NOT constructible (see design.json)"
-    ax.set_title(f"approximated surface S^ coloured by sigma (triangle mean)\n{edges}; {verdict}", fontsize=9)
+    ax.set_title(f"approximated surface S^, coloured by sigma (triangle mean)\n{edges}\n{verdict}", fontsize=10)
 
 
 def preview_figure(doc: dict, xyz, uv, faces):
@@ -255,8 +259,8 @@ def preview_figure(doc: dict, xyz, uv, faces):
     _pattern_axes(fig, fig.add_axes((0.045, y0, pw / width, h)),
                   fig.add_axes((0.045 + pw / width + 0.008, y0, 0.010, h)), doc)
     s3 = min(ph, 5.0) / height
-    ax3 = fig.add_axes((0.69, y0 + 0.5 * (h - s3), 0.22, s3), projection="3d")
-    cax3 = fig.add_axes((0.93, y0 + 0.5 * (h - s3), 0.010, s3))
+    ax3 = fig.add_axes((0.715, y0 + 0.5 * (h - s3), 0.20, s3), projection="3d")
+    cax3 = fig.add_axes((0.94, y0 + 0.5 * (h - 0.8 * s3), 0.010, 0.8 * s3))   # below the 3D panel's title
     _surface_axes(fig, ax3, cax3, np.asarray(xyz, float), np.asarray(uv, float), faces,
                   doc.get("report") or {})
     title = f"airmat design: {doc.get('name', '')}"
