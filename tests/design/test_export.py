@@ -263,5 +263,39 @@ def test_preview_names_every_string_and_its_sigma_scale_holds_the_report(written
     lo, hi = surface_bar.get_ylim()
     assert lo <= 0.955 and hi >= 1.045 - 1e-9
     assert sigma_limits(np.array([1.0]), {"sigma": {"min": 0.955, "max": 1.0}}) == (0.955, 1.045)
-    # legible at the large presets' 150 strings, and not smaller than 4.5 pt
-    assert id_font_size(20) == 7.0 and id_font_size(150) == 4.5 and id_font_size(500) == 4.5
+    # legible at the large presets' 150 strings and more: crowded ids are dropped, not shrunk below 6.5 pt
+    assert id_font_size(20) == 8.0 and id_font_size(150) == 6.5 and id_font_size(500) == 6.5
+
+
+def _crowded_document(n_u=24, n_v=24):
+    """The test document with n_u * n_v short dashes on a grid, far more than their ids have room for."""
+    doc, _ = _document()
+    u = np.linspace(40.0, 790.0, n_u)
+    v = np.linspace(40.0, 660.0, n_v)
+    dashes = [{"id": f"k{1 + (j % 2)}-{i + 1:03d}-{j + 1:02d}", "side": ("top", "bottom")[(i + j) % 2],
+               "family": "k1", "l_mm": {"median": 200.0 + i + j},
+               "polyline_mm": [[float(u[i]), float(v[j])], [float(u[i]) + 25.0, float(v[j]) + 4.0]]}
+              for i in range(n_u) for j in range(n_v)]
+    return {**doc, "dashes": dashes}
+
+
+def test_preview_at_many_strings_draws_no_two_ids_over_each_other():
+    doc = _crowded_document()
+    n = len(doc["dashes"])
+    fig = preview_figure(doc, *_cylinder_surface())
+    fig.canvas.draw()
+    pattern = fig.axes[0]
+    renderer = fig.canvas.get_renderer()
+    texts = [t for t in pattern.texts if (t.get_gid() or "").startswith("id-")]
+    boxes = np.array([t.get_window_extent(renderer).extents for t in texts])
+    assert 20 < len(texts) < n           # the crowd is thinned, not emptied
+    lo, hi = boxes[:, :2], boxes[:, 2:]
+    overlap = np.all((lo[:, None] < hi[None]) & (lo[None] < hi[:, None]), axis=2)
+    np.fill_diagonal(overlap, False)
+    assert not overlap.any()
+    frame = pattern.get_window_extent(renderer).extents
+    assert np.all(lo >= frame[:2] - 0.5) and np.all(hi <= frame[2:] + 0.5)
+    assert f"ids of {len(texts)} of {n} strings" in pattern.get_title()
+    # each shown id names a string of the design, once
+    ids = [t.get_text() for t in texts]
+    assert len(set(ids)) == len(ids) and set(ids) <= {d["id"] for d in doc["dashes"]}
