@@ -15,13 +15,16 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py",
-           "bench_design.py", "bench_inflation.py", "bench_check.py"]
+BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py", "bench_design.py",
+           "bench_density.py", "bench_inflation.py", "bench_check.py", "bench_surfaces.py", "bench_refine.py",
+           "bench_monte_carlo.py", "bench_startup.py"]
+#: the benchmarks that take --quick (small sizes); the others run as they are
+QUICK = {"bench_cholesky.py", "bench_inflation.py", "bench_check.py"}
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="pass --quick to every benchmark (small sizes)")
+    ap.add_argument("--quick", action="store_true", help="pass --quick to the benchmarks that take it (small sizes)")
     ap.add_argument("names", nargs="*", help="only these benchmarks (file names)")
     args = ap.parse_args(argv)
     out = HERE / "results"
@@ -33,7 +36,7 @@ def main(argv=None) -> int:
             print(f"## {name}: missing", flush=True)
             failed.append(name)
             continue
-        cmd = [sys.executable, str(script)] + (["--quick"] if args.quick else [])
+        cmd = [sys.executable, str(script)] + (["--quick"] if args.quick and name in QUICK else [])
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=HERE.parent)
         dt = time.perf_counter() - t0
