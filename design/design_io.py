@@ -321,7 +321,7 @@ def read_design(folder) -> DesignResult:
         raise InputError("field 'summary' must be an object with objects 'dashes' and 'no_string'", path=path)
     pattern = Pattern(strings=strings, L=params.L,
                       n_dashes=dict(summary.get("dashes", {})), n_no_string=dict(summary.get("no_string", {})),
-                      notes=tuple(summary.get("notes", ())))
+                      notes=tuple(summary.get("notes", ())), coverage=summary.get("coverage"))
     xyz, uv, faces = read_approx_surface(folder / "approx_surface.ply")
     approx = ApproxSurface(target=None, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
                            report=_report(doc, path))

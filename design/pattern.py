@@ -108,6 +108,9 @@ class Pattern:
         What the tracer and the length step skipped and why.
     tie_grid : design.tie_grid.TieGridReport or None
         Grid pitch and how far snapping the ends to it moved them; None when not known.
+    coverage : dict or None
+        How far the points that need strings lie from them, per family (mm,
+        :meth:`design.coverage.Coverage.summary_mm`); None when not known.
     """
 
     strings: tuple
@@ -116,6 +119,7 @@ class Pattern:
     n_no_string: dict
     notes: tuple = ()
     tie_grid: object = field(default=None, repr=False, compare=False)
+    coverage: dict | None = field(default=None, repr=False, compare=False)
 
     def count(self, side: str, family: str) -> int:
         """Number of strings on ``side`` ("top"/"bottom") of ``family`` ("k1"/"k2")."""

@@ -22,6 +22,7 @@ from airmat.errors import InputError
 from airmat.units import M_TO_MM
 from calib.model import kappa_max
 from design.calibration_source import CalibrationSource, default_calibration
+from design.coverage import pattern_coverage
 from design.field import MattressField
 from design.pattern import Pattern
 from design.string_lengths import string_pattern
@@ -214,6 +215,11 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     dashes, snap = snap_dashes(stripes.dashes, grid=params.tie_grid, width=mattress.width, height=mattress.height)
     pattern = string_pattern(mfield, dashes, calibration, L=L, n_points=params.n_kappa_points,
                              kappa_min=params.kappa_min, notes=stripes.notes, tie_grid=snap)
+    cover = pattern_coverage(mfield, pattern.strings, dashes, approx.uv, width=mattress.width,
+                             height=mattress.height, kappa_min=params.kappa_min, L=L, mu2=sp.mu2, margin=sp.margin)
+    for note in cover.notes():
+        log.info(note)
+    pattern = dataclasses.replace(pattern, notes=pattern.notes + cover.notes(), coverage=cover.summary_mm())
     timings["lengths"] = time.perf_counter() - t
     return DesignResult(name=target.name, approx=approx, pattern=pattern, calibration=calibration, params=params,
                         seed=int(seed), mfield=mfield, stripes=stripes, timings=timings)

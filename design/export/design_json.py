@@ -9,7 +9,9 @@ Layout (all lengths in mm on Ω = [0, W] × [0, H], top face seen from above)::
     report        {sigma {min, avg, max}, kappa1_per_m {avg, max}, kappa2_per_m {avg, max},
                    constructible, reasons}
     summary       {strings {top {k1, k2}, bottom {k1, k2}}, dashes {k1, k2}, no_string {k1, k2}, notes,
-                   tie_grid {grid_mm, end_shift_mm {mean, max}, dL_mm {mean, max_abs}}}
+                   tie_grid {grid_mm, end_shift_mm {mean, max}, dL_mm {mean, max_abs}},
+                   coverage {k1, k2: {need_points, gap_p95_mm, gap_max_mm, interior_gap_max_mm,
+                   edge_band_max_mm, weak_band_max_mm, limit_mm, covered}} (design.coverage; null when not known)}
     dashes        [{id, family, side, polyline_mm, a_mm, b_mm, L_mm, chord_mm, kappa_per_m,
                     l_mm {median, lo95, hi95}, flags, a_node, b_node}]
 
@@ -93,7 +95,8 @@ def design_document(pattern, *, mattress, calibration, report: dict, parameters:
         "report": report,
         "summary": {"strings": strings, "dashes": dict(pattern.n_dashes),
                     "no_string": dict(pattern.n_no_string), "notes": list(pattern.notes),
-                    "tie_grid": pattern.tie_grid.summary_mm() if pattern.tie_grid is not None else None},
+                    "tie_grid": pattern.tie_grid.summary_mm() if pattern.tie_grid is not None else None,
+                    "coverage": pattern.coverage},
         "dashes": [_dash_entry(s) for s in pattern.strings],
     })
 

@@ -54,6 +54,7 @@ def test_round_trip_within_the_files_precision(vault):
             assert getattr(s, key) == pytest.approx(getattr(t, key), abs=5e-6)
         assert s.kappa == pytest.approx(t.kappa, abs=5e-5)
     assert back.pattern.n_dashes == result.pattern.n_dashes and back.pattern.notes == result.pattern.notes
+    assert back.pattern.coverage == result.pattern.coverage and back.pattern.coverage["k1"]["need_points"] > 0
     # the calibration samples: exact
     np.testing.assert_array_equal(back.calibration.delta, result.calibration.delta)
     np.testing.assert_array_equal(back.calibration.d, result.calibration.d)
