@@ -21,24 +21,24 @@ Every string curve is named by its id and carries the user text of :data:`STRING
 design has them). Ŝ is the mattress's mid-surface; the lifted polylines and tie points lie
 on the face their string is tied on, Ŝ ± t/2 n (:func:`lift_to_face`).
 rhino3dm adds mesh vertices one by one (it has no bulk setter); the file is
-written to a temporary file and published with :mod:`airmat.atomic`.
+written to memory and published with :mod:`airmat.atomic`.
 
 Layer and object GUIDs are derived from their names (uuid5), so the same design
-gives the same model; the bytes still differ between runs in the two time
-stamps (and their checksum) that OpenNURBS writes into the file's header.
+gives the same model, and :mod:`design.export.rhino_stable` removes what
+OpenNURBS stamps from the run (the time, the user name, the file name): the same
+design gives the same bytes.
 """
 
 from __future__ import annotations
 
-import tempfile
 import uuid
-from pathlib import Path
 
 import numpy as np
 
 from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
+from design.export.rhino_stable import stable_3dm_bytes
 
 __all__ = ["lift_to_surface", "lift_to_face", "band_colours", "rhino_model", "write_3dm", "STRING_KEYS",
            "FACE_FAMILIES"]
@@ -325,7 +325,7 @@ def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *
 
 def write_3dm(path, doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *,
               shapes: dict | None = None, band: np.ndarray | None = None) -> None:
-    """Write ``design.3dm`` (or ``inflated.3dm`` with ``shapes``) through :mod:`airmat.atomic`.
+    """Write ``design.3dm`` (or ``inflated.3dm`` with ``shapes``) through :mod:`airmat.atomic`, byte-stable.
 
     Parameters are those of :func:`rhino_model`.
 
@@ -335,9 +335,7 @@ def write_3dm(path, doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarra
         rhino3dm could not write the file.
     """
     model = rhino_model(doc, xyz, uv, faces, shapes=shapes, band=band)
-    with tempfile.TemporaryDirectory(prefix="airmat-3dm-") as tmp:
-        tmp_path = Path(tmp) / "model.3dm"
-        if not model.Write(str(tmp_path), 8):
-            raise InputError("rhino3dm could not write the .3dm file", path=path)
-        data = tmp_path.read_bytes()
+    data = stable_3dm_bytes(model, 8)
+    if not data:
+        raise InputError("rhino3dm could not write the .3dm file", path=path)
     atomic_write_bytes(path, data)
