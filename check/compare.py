@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from airmat.errors import InputError
-from airmat.geometry.polyline import midpoints
+from airmat.geometry.polyline import midpoints, points_at_fractions
 from inflation.mesh import locate
 
 __all__ = ["SURFACES", "Deviation", "surface_at", "length_keeping_face", "deviation", "realized_curvature",
@@ -162,12 +162,30 @@ def deviation(inflation, approx_xyz, approx_uv, surface: str = "mid") -> Deviati
                      translation=tc - matrix @ mc)
 
 
-def realized_curvature(inflation, a, b, polylines, surface: str = "mid") -> np.ndarray:
+def realized_curvature(inflation, a, b, polylines, surface: str = "mid", *, method: str = "turning",
+                       n: int = 21) -> np.ndarray:
     """Signed curvature (1/m) one face of the simulation realizes along each dash.
 
-    The circle through the face's points at the dash's two ends and its
-    middle (Menger curvature); positive when the surface bends away from the
-    top face, the sign convention of the designer.
+    ``method="turning"`` (the default): the mean normal curvature of the face
+    along the dash, the angle by which the face's normal turns from the
+    dash's one end to the other divided by the dash's arc length on that face.
+    For a dash along a line of curvature this is exactly the mean of κₙ along
+    it (Rodrigues: dN/ds = −κₙ T), the same kind of number as the designer's
+    κ (the mean of the field at points along the dash), and it is what the
+    paper's model of a bend predicts: the face turns by π − θ over one
+    string's span, the turn concentrated at the wrinkles at the string's ends
+    (§2.2, Figure 4). The normal is the drop-stitch direction (bottom to top),
+    the same on both faces; the faces differ in arc length.
+
+    ``method="circle"``: the circle through the face's points at the dash's
+    two ends and its middle (Menger curvature). Where the bend concentrates
+    at the string ends, this reads the shape between the wrinkles, not the
+    turn the string makes (a polygon's side reads 0 however sharp its
+    corners), so it swings above and below the target with the position of
+    the neighbouring strings' ends; kept for comparison.
+
+    Positive when the surface bends away from the top face, the sign
+    convention of the designer.
 
     Parameters
     ----------
@@ -177,18 +195,37 @@ def realized_curvature(inflation, a, b, polylines, surface: str = "mid") -> np.n
         Dash paths on Ω (m).
     surface : {"mid", "top", "bottom"} or ndarray of shape (k,) of str
         The face to measure on, for all dashes or per dash.
+    method : {"turning", "circle"}
+    n : int
+        Points along each dash for its arc length (``"turning"``).
     """
     k = len(a)
     if k == 0:
         return np.zeros(0)
-    pts = np.concatenate([np.asarray(a, float), midpoints(polylines), np.asarray(b, float)])
     faces = np.broadcast_to(np.asarray(surface, dtype=object), (k,))
-    xyz = np.empty((3 * k, 3))
-    for name in set(faces):               # at most three faces
-        sel = np.tile(faces == name, 3)
-        xyz[sel], _ = surface_at(inflation, pts[sel], name)
-    _, up = surface_at(inflation, pts[k:2 * k])
-    return menger_signed(xyz[:k], xyz[k:2 * k], xyz[2 * k:], up)
+    if method == "circle":
+        pts = np.concatenate([np.asarray(a, float), midpoints(polylines), np.asarray(b, float)])
+        xyz = np.empty((3 * k, 3))
+        for name in set(faces):               # at most three faces
+            sel = np.tile(faces == name, 3)
+            xyz[sel], _ = surface_at(inflation, pts[sel], name)
+        _, up = surface_at(inflation, pts[k:2 * k])
+        return menger_signed(xyz[:k], xyz[k:2 * k], xyz[2 * k:], up)
+    if method != "turning":
+        raise ValueError(f"method must be 'turning' or 'circle', got {method!r}")
+    t = np.linspace(0.0, 1.0, int(n))
+    pts = np.stack([points_at_fractions(np.asarray(p, float), t) for p in polylines])     # (k, n, 2)
+    xyz = np.empty((k, len(t), 3))
+    for name in set(faces):
+        sel = faces == name
+        xyz[sel] = surface_at(inflation, pts[sel].reshape(-1, 2), name)[0].reshape(-1, len(t), 3)
+    arc = np.linalg.norm(np.diff(xyz, axis=1), axis=2).sum(axis=1)
+    _, up = surface_at(inflation, np.concatenate([pts[:, 0], pts[:, -1]]))
+    ua, ub = up[:k], up[k:]
+    angle = np.arctan2(np.linalg.norm(np.cross(ua, ub), axis=1), np.einsum("kd,kd->k", ua, ub))
+    # normals that spread apart along the dash: the top face is convex, the surface bends away from it
+    sign = np.where(np.einsum("kd,kd->k", ub - ua, xyz[:, -1] - xyz[:, 0]) >= 0, 1.0, -1.0)
+    return sign * angle / np.maximum(arc, 1e-300)
 
 
 def menger_signed(p, m, q, up) -> np.ndarray:

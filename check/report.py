@@ -107,7 +107,9 @@ def check_dict(check) -> dict:
            "note": "strings simulated at l* = l + 2 delta (their ends do not slip in the simulation); "
                    f"deviation of the aligned {check.surface} face (the face that keeps its length, opposite "
                    "the larger share of bending |kappa| x span) from approx_surface, correspondence through the "
-                   "mattress; the other faces under deviation.surfaces; kappa_realized on the same face, "
+                   "mattress; the other faces under deviation.surfaces; kappa_realized on the same face (the turn of "
+                   "the face's normal from one end of the dash to the other over its arc: its mean normal "
+                   "curvature), "
                    "kappa_realized_free on the face opposite each dash's string; inflated.ply in "
                    "approx_surface's frame",
            **_run_dict(med)}

@@ -1,4 +1,4 @@
-"""Comparison of an inflation with Ŝ: Kabsch alignment and the sign of the realized curvature."""
+"""Comparison of an inflation with Ŝ: Kabsch alignment, and the realized curvature (sign, exact cases)."""
 
 import numpy as np
 import pytest
@@ -101,3 +101,53 @@ def test_the_string_face_bends_more_than_the_free_face(mesh, top_strings):
     assert np.all(k["top"] < k["mid"]) and np.all(k["mid"] < k["bottom"]) and np.all(k["bottom"] < 0)
     per_dash = realized_curvature(top_strings, A, B, polys, np.array(["top", "bottom"]))
     np.testing.assert_allclose(per_dash, [k["top"][0], k["bottom"][1]])
+
+
+def _bent(mesh, angle_of_u):
+    """An 'inflation' whose faces are the flat mattress bent along u: the mid-line turns by
+    ``angle_of_u(u)`` (rad), each face offset by ±d/2 along the normal (exact geometry, no solver)."""
+    from types import SimpleNamespace
+
+    u = np.linspace(0.0, W, 2001)
+    ang = angle_of_u(u)
+    # mid-line by integrating its unit tangent (cos, sin) of the turning angle over arc length u
+    du = np.diff(u)
+    x = np.concatenate([[0.0], np.cumsum(du * np.cos(0.5 * (ang[1:] + ang[:-1])))])
+    z = np.concatenate([[0.0], np.cumsum(du * np.sin(0.5 * (ang[1:] + ang[:-1])))])
+    uu, vv, zz = mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.vertices[:, 2]
+    a = np.interp(uu, u, ang)
+    normal = np.column_stack([-np.sin(a), np.zeros_like(a), np.cos(a)])     # up: bottom -> top
+    xyz = np.column_stack([np.interp(uu, u, x), vv, np.interp(uu, u, z)]) + zz[:, None] * normal
+    return SimpleNamespace(mesh=mesh, xyz=xyz)
+
+
+def test_turning_reads_the_exact_curvature_of_a_bent_mattress():
+    """A mattress bent into a cylinder of mid radius R: the top face reads 1/(R + d/2) exactly,
+    the bottom face 1/(R - d/2), with the designer's sign (bending toward the top: negative)."""
+    fine = build_mattress_mesh(W, H, D, resolution=0.01)
+    R = 0.5
+    inf = _bent(fine, lambda u: u / R)          # turns toward +z: the top is the inner face
+    polys = [np.stack([a, b]) for a, b in zip(A, B)]
+    top = realized_curvature(inf, A, B, polys, "top")
+    bottom = realized_curvature(inf, A, B, polys, "bottom")
+    np.testing.assert_allclose(top, -1.0 / (R - D / 2), rtol=2e-3)
+    np.testing.assert_allclose(bottom, -1.0 / (R + D / 2), rtol=2e-3)
+    np.testing.assert_allclose(realized_curvature(inf, A, B, polys, "top", method="circle"), top, rtol=5e-3)
+
+
+def test_turning_sees_a_bend_concentrated_at_the_string_ends_where_the_circle_does_not():
+    """The paper's polygon (Figure 4b): flat between the wrinkles at the string ends, all the turn at
+    the ends. Over a dash from wrinkle to wrinkle the face turns by the two half-corners; the circle
+    through the dash's ends and middle sees a straight side."""
+    fine = build_mattress_mesh(W, H, D, resolution=0.01)
+    corner = 0.6                                 # rad at each wrinkle, u = 0.15 and 0.45 (the dash ends)
+    width = 0.02                                 # the wrinkle's extent along u (m)
+    ramp = lambda u, c: np.clip((u - c) / width + 0.5, 0.0, 1.0)   # noqa: E731
+    inf = _bent(fine, lambda u: -corner * (ramp(u, 0.15) + ramp(u, 0.45)))
+    polys = [np.stack([a, b]) for a, b in zip(A, B)]
+    top = realized_curvature(inf, A, B, polys, "top")
+    # half of each corner lies on the dash: the face turns by one corner over its arc, which is the
+    # dash's 0.3 m plus what the convex top face gains around the two half-corners, (d/2) * corner
+    np.testing.assert_allclose(top, corner / (0.3 + 0.5 * D * corner), rtol=2e-3)
+    # the circle sees the straight side, plus a little of the corners' rounding by the offset (12 %)
+    assert np.all(np.abs(realized_curvature(inf, A, B, polys, "top", method="circle")) < 0.15 * top)

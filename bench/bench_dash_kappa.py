@@ -1,0 +1,67 @@
+"""Benchmark: the curvature each dash realizes on the named face against its target, per preset.
+
+Usage::
+
+    .venv/bin/python bench/bench_dash_kappa.py [--presets vault1,saddle,dome,vault2,roof] [--resolution-mm 20]
+
+Each preset is designed with the defaults (paper calibration values, seed 0),
+inflated at its median lengths (``check.inflation_check.check``, no envelope)
+and, over the dashes with |κ| >= 1 1/m, the ratio realized / target is
+summarized per family: median, 10th and 90th percentiles, and the share of
+dashes within 10 %. Two measures of the realized curvature
+(:func:`check.compare.realized_curvature`): the turn of the face's normal
+over the dash (the check's) and the circle through its ends and middle.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+from designed_preset import designed_preset  # noqa: E402
+from check.compare import realized_curvature  # noqa: E402
+from check.inflation_check import check  # noqa: E402
+
+
+def _stats(q) -> str:
+    return (f"{np.median(q):.2f} | {np.percentile(q, 10):.2f} – {np.percentile(q, 90):.2f} "
+            f"| {100 * np.mean(np.abs(q - 1) <= 0.1):.0f} %")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--presets", default="vault1,saddle,dome,vault2,roof")
+    ap.add_argument("--resolution-mm", type=float, default=20.0)
+    args = ap.parse_args(argv)
+    print("| preset | family | dashes with \\|κ\\| ≥ 1 | turning: median | p10 – p90 | within 10 % "
+          "| circle: median | p10 – p90 | within 10 % |")
+    print("|---|---|---:|---:|---|---:|---:|---|---:|")
+    for name in args.presets.split(","):
+        d = designed_preset(name)
+        c = check(d, resolution=args.resolution_mm * 1e-3, envelope=False)
+        run = c.runs["median"]
+        strings = d.pattern.strings
+        kappa = np.array([s.kappa for s in strings])
+        fam = np.array([s.dash.family for s in strings])
+        a = np.array([s.dash.polyline[0] for s in strings])
+        b = np.array([s.dash.polyline[-1] for s in strings])
+        circle = realized_curvature(run.inflation, a, b, [s.dash.polyline for s in strings], c.surface,
+                                    method="circle")
+        for f in ("k1", "k2"):
+            m = (np.abs(kappa) >= 1.0) & (fam == f)
+            if not m.any():
+                continue
+            print(f"| {name} | {f} | {m.sum()} | {_stats(run.kappa_realized[m] / kappa[m])} "
+                  f"| {_stats(circle[m] / kappa[m])} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
