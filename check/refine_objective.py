@@ -70,7 +70,7 @@ class FaceFit:
     target: np.ndarray
 
 
-def face_fit(p: sp.csr_matrix, x: np.ndarray, approx_xyz: np.ndarray) -> FaceFit:
+def face_fit(p: sp.csr_matrix, x: np.ndarray, approx_xyz: np.ndarray, offset=None) -> FaceFit:
     """Align Ŝ onto the named face ``P x`` (Kabsch) and measure the mean squared distance.
 
     Parameters
@@ -81,6 +81,9 @@ def face_fit(p: sp.csr_matrix, x: np.ndarray, approx_xyz: np.ndarray) -> FaceFit
         Vertex positions (m).
     approx_xyz : ndarray of shape (N, 3)
         Ŝ's vertices (m).
+    offset : ndarray of shape (N, 3), optional
+        Added to the face before the alignment (m): the refinement's coarse-mesh
+        correction (the fine face minus the coarse one at the start lengths).
 
     Examples
     --------
@@ -90,7 +93,7 @@ def face_fit(p: sp.csr_matrix, x: np.ndarray, approx_xyz: np.ndarray) -> FaceFit
     >>> round(face_fit(sp.identity(4, format="csr"), moved, pts).objective, 12)
     0.0
     """
-    face = p @ x
+    face = p @ x if offset is None else p @ x + offset
     s = np.asarray(approx_xyz, float)
     fc, sc = face.mean(axis=0), s.mean(axis=0)
     rot, _ = Rotation.align_vectors(face - fc, s - sc)
