@@ -51,6 +51,8 @@ def add_parser(sub, parents):
                         "so that the inflated named face lands on the approximated surface")
     p.add_argument("--refine-resolution-mm", type=float, default=20.0,
                    help="mesh edge length of the refinement's inflations (default 20)")
+    p.add_argument("--refine-single-level", action="store_true",
+                   help="with --refine: every Gauss-Newton iteration at --refine-resolution-mm (slower, closer)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
@@ -179,7 +181,8 @@ def run(args) -> int:
         from airmat.units import MM
         from check.refinement import refine
 
-        refinement = refine(result, resolution=args.refine_resolution_mm * MM)
+        refinement = refine(result, resolution=args.refine_resolution_mm * MM,
+                            **({"coarsest": 0.0} if args.refine_single_level else {}))
         result = refinement.design
         failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:

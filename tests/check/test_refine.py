@@ -148,6 +148,12 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     assert doc["refine"]["iterations"] == 3 and doc["refine"]["converged"] is (code == 0)
     assert doc["refine"]["deviation_after"]["rms_mm"] < doc["refine"]["deviation_before"]["rms_mm"]
     assert (out / "cutting_list.csv").is_file()
+    # --single-level: every iteration at the target resolution (no coarse mesh in the block)
+    one = tmp_path / "one"
+    code = main(["refine", "-q", str(src), "--out", str(one), "--resolution-mm", "20", "--max-iter", "2",
+                 "--single-level"])
+    assert code in (0, 3)
+    assert json.loads((one / "design.json").read_text())["refine"]["coarse_resolution_mm"] is None
 
 
 def test_cli_design_refine_too_coarse_exits_2_and_writes_nothing(tmp_path, capsys):
