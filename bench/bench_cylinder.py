@@ -120,9 +120,9 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=3):
     from calib.scan_io import read_scan
     from data_synthetic.scan_write import FORMATS, write_scan
 
-    library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs", "glb": "trimesh",
-               "ply": "numpy (binary cloud)", "pts": "pandas", "xyz": "pandas", "txt": "pandas",
-               "pcd_ascii": "pandas", "pcd_binary": "numpy"}
+    library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs (parallel)", "glb": "trimesh (scene graph)",
+               "ply": "numpy (binary cloud)", "pts": "pyarrow", "xyz": "pyarrow", "txt": "pyarrow",
+               "pcd_ascii": "pyarrow", "pcd_binary": "numpy"}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
