@@ -19,8 +19,9 @@ is timed on them; the table gives wall time and radius error per scan size.
 With ``--formats N``: an N-point scan written in every scanner format by the
 library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs,
 open3d, trimesh, numpy text layouts), read back with calib.scan_io.read_scan
-(median of 3 reads, after one warm-up read that loads the library), and
-fitted: read time, its ratio to the PLY read, file size and radius error.
+(median of 5 reads, after one warm-up read that loads the library, each
+followed by a read of the PLY file), and fitted: read time, its ratio to
+the PLY reads next to it, file size and radius error.
 
 With ``--process N``: ``airmat fit`` and the recipe as a script
 (bench/recipe_cylinder.py, reading the file with open3d) run as whole
@@ -112,8 +113,13 @@ def run(sizes, repeats, seed, kappa, arc_deg, ransac_points, ransac_iterations, 
     return rows
 
 
-def format_rows(n, seed, kappa, arc_deg, n_reads=3):
-    """[(format, library, read s, read / PLY read, MB, radius error %)] for an n-point scan."""
+def format_rows(n, seed, kappa, arc_deg, n_reads=5):
+    """[(format, library, read s, read / PLY read, MB, radius error %)] for an n-point scan.
+
+    Each format's reads alternate with reads of the PLY file, and its ratio is
+    the median of its reads over the median of those PLY reads: on a shared
+    machine the load changes between formats, not between neighbouring reads.
+    """
     import tempfile
     from pathlib import Path
 
@@ -125,20 +131,29 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=3):
                "pcd_ascii": "pyarrow", "pcd_binary": "numpy"}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
+
+    def timed(path):
+        t0 = time.perf_counter()
+        got = read_scan(path)
+        return time.perf_counter() - t0, got
+
     with tempfile.TemporaryDirectory() as tmp:
+        ply = write_scan(Path(tmp) / "scan_ply.ply", scan.points * 1e3, "ply", seed=seed)
+        read_scan(ply)
         for fmt in ["ply", *sorted(f for f in FORMATS if f != "ply")]:
-            path = write_scan(Path(tmp) / f"scan_{fmt}{FORMATS[fmt]}", scan.points * 1e3, fmt, seed=seed)
+            path = ply if fmt == "ply" else \
+                write_scan(Path(tmp) / f"scan_{fmt}{FORMATS[fmt]}", scan.points * 1e3, fmt, seed=seed)
             read_scan(path)  # warm-up: the library's import is start-up, not reading
-            times = []
+            times, t_ply = [], []
             for _ in range(n_reads):
-                t0 = time.perf_counter()
-                got = read_scan(path)
-                times.append(time.perf_counter() - t0)
+                dt, got = timed(path)
+                times.append(dt)
+                t_ply.append(timed(ply)[0])
             radius = fit_cylinder(got.points, seed=seed, quantization=got.quantization).radius
-            rows.append((fmt, library.get(fmt, "open3d"), float(np.median(times)),
+            t = float(np.median(times))
+            rows.append((fmt, library.get(fmt, "open3d"), t, t / float(np.median(t_ply)),
                          os.path.getsize(path) / 1e6, abs(radius - scan.radius) / scan.radius * 100))
-    t_ply = rows[0][2]
-    return [(f, lib, t, t / t_ply, mb, e) for f, lib, t, mb, e in rows]
+    return rows
 
 
 def process_rows(n, seed, kappa, arc_deg, repeats=5):
@@ -194,8 +209,8 @@ def process_markdown(rows, ratio, n, repeats):
 
 
 def format_markdown(rows, n):
-    head = (f"Read time per format, {n:,}-point scan (median of 3 reads after a warm-up; "
-            "radius error of the fit of what was read)\n\n"
+    head = (f"Read time per format, {n:,}-point scan (median of 5 reads after a warm-up, each "
+            "followed by a PLY read: x PLY is against those; radius error of the fit of what was read)\n\n"
             "| format | library | read (s) | × PLY read | file (MB) | radius error (%) |\n"
             "|---|---|---:|---:|---:|---:|\n")
     return head + "".join(f"| {f} | {lib} | {t:.3f} | {r:.2f} | {mb:.1f} | {e:.4f} |\n"
