@@ -8,7 +8,7 @@ The pipeline, each step in its own module:
    (:mod:`calib.voxel_grid`), normals (:mod:`calib.point_normals`), then
    the support plane(s) the specimen rests on (:mod:`calib.support_plane`,
    a seeded RANSAC), taking care that a flat specimen is not one;
-3. axis from the scatter of the normals, circle by RANSAC (scikit-image)
+3. axis from the scatter of the normals, circle by RANSAC (:mod:`calib.circle_ransac`)
    in the projection along it, or a quadratic height field for a nearly
    flat specimen (:mod:`calib.cylinder_init`);
 4. robust geometric least squares over axis direction, position and
@@ -37,7 +37,7 @@ import numpy as np
 from airmat.errors import InputError, NotACylinderError
 from calib.cylinder_init import initial_cylinder
 from calib.cylinder_irls import kappa_standard_error, polish
-from calib.cylinder_lsq import arc_position, refine, residuals
+from calib.cylinder_lsq import arc_from_local, distance_from_local, refine
 from calib.cylinder_refine import full_resolution_fit, surface_spread
 from calib.scan_noise import local_noise
 from calib.point_normals import normals_knn
@@ -291,7 +291,8 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
 
     ``noise`` is the local noise, ``sigma`` the working residual scale (>= noise), both m.
     """
-    e = residuals(cand, frame)
+    X, Z = frame.local(cand)  # one pass: residuals and arc positions
+    e = distance_from_local(X, Z, frame.kappa)
     near = np.abs(e) < 10 * sigma
     stride = max(len(e) // 50_000, 1)  # order statistics from a systematic subsample (speed)
     scale = 1.4826 * float(np.median(np.abs(e[near][::stride]))) if near.any() else np.inf
@@ -302,7 +303,8 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
         raise NotACylinderError(f"only {100 * frac:.0f}% inliers (need {100 * min_inlier_fraction:.0f}%)"
                                 + _why(scatter), inlier_fraction=frac)
     rms = float(np.sqrt(np.mean(e[used] ** 2)))  # the fitted face, off the groove bands
-    inl_sub = cand[inl][::stride]
+    inl_idx = np.flatnonzero(inl)[::stride]
+    inl_sub = cand[inl_idx]
     ext = float(np.linalg.norm(np.ptp(inl_sub, axis=0)))
     lo, hi = np.percentile(inl_sub, [0.5, 99.5], axis=0)
     span = float(np.linalg.norm(hi - lo))
@@ -316,12 +318,13 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
         raise NotACylinderError(f"RMS {rms * 1e3:.3g} mm against {noise * 1e3:.2g} mm "
                                 f"{'given' if noise_given else 'estimated'} noise" + _why(scatter) + hint,
                                 rms=rms, noise=noise)
-    se_iid, se_cl = kappa_standard_error(cand[used], frame, f_scale=f_scale, loss=loss,
-                                         n_clusters=n_clusters, state=final.state)
+    se_iid, se_cl = kappa_standard_error(None, frame, f_scale=f_scale, loss=loss, n_clusters=n_clusters,
+                                         state=final.state,
+                                         arc=arc_from_local(X[used], Z[used], frame.kappa))
     kappa, se = abs(frame.kappa), max(se_iid, se_cl)
     flat = kappa < 2 * se
     center = frame.origin if flat else frame.origin + frame.normal / frame.kappa
-    s = arc_position(inl_sub, frame)
+    s = arc_from_local(X[inl_idx], Z[inl_idx], frame.kappa)
     q_lo, q_hi = np.quantile(s, [0.005, 0.995])
     arc = float(np.degrees((q_hi - q_lo) / 0.99 * kappa))
     axis = frame.axis * np.sign(frame.axis[np.argmax(np.abs(frame.axis))])

@@ -9,7 +9,8 @@ the middle eigenvalue of the banded moments measures how well the normals
 lie in a plane: near 0 for a cylinder, near 1 for a sphere cap or a box.
 
 The points are then projected along the axis and a circle is found by
-RANSAC (:func:`skimage.measure.ransac` with ``CircleModel``). A specimen
+RANSAC (:func:`calib.circle_ransac.circle_ransac`, scikit-image's
+estimator vectorized over the trials). A specimen
 that is nearly flat (its normals spread over less than ``flat_deg``)
 has no usable normal scatter; it is initialized instead from a robust
 quadratic height field over its plane: the Hessian's dominant eigenvector
@@ -18,12 +19,12 @@ gives the arc direction, its eigenvalue the curvature.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from airmat.errors import NotACylinderError
+from calib.circle_ransac import circle_ransac
 from calib.cylinder_lsq import CylinderFrame
 
 __all__ = ["NormalScatter", "normal_scatter", "InitialCylinder", "initial_cylinder", "circle_init",
@@ -151,22 +152,18 @@ def circle_init(points: np.ndarray, axis: np.ndarray, *, threshold: float, max_t
     airmat.errors.NotACylinderError
         When RANSAC finds no circle.
     """
-    from skimage.measure import CircleModel, ransac
-
     e1, e2 = _perp_basis(axis)
     uv = np.column_stack([points @ e1, points @ e2])
     c_uv = uv.mean(axis=0)
     span = float(np.ptp(uv, axis=0).max()) or 1.0
     data = (uv - c_uv) / span  # centred and scaled: well conditioned anywhere
-    with warnings.catch_warnings():  # "No inliers found": reported below as a refusal
-        warnings.filterwarnings("ignore", message="No inliers found", category=UserWarning)
-        model, inliers = ransac(data, CircleModel, min_samples=3, residual_threshold=threshold / span,
-                                max_trials=max_trials, stop_probability=0.999, rng=seed,
-                                is_model_valid=lambda m, *_: bool(np.isfinite(m.radius) and m.radius < 1e4))
-    if model is None or inliers is None or inliers.sum() < 6:
+    circle = circle_ransac(data, threshold=threshold / span, max_trials=max_trials, stop_probability=0.999,
+                           max_radius=1e4, seed=seed)
+    if circle is None or circle.inliers.sum() < 6:
         raise NotACylinderError("no circular arc found in the cross-section along the axis")
-    center = c_uv + np.asarray(model.center) * span
-    radius = float(model.radius) * span
+    inliers = circle.inliers
+    center = c_uv + circle.center * span
+    radius = circle.radius * span
     along = float(np.mean(points[inliers] @ axis))
     c3 = center[0] * e1 + center[1] * e2 + along * axis
     m = points[inliers].mean(axis=0)

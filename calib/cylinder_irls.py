@@ -102,10 +102,10 @@ def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     x = prob.x0()
     e, Jt = prob.fun_jac(x)
     n_eval, converged, state = 1, False, None
-    cost = robust_cost(e, f, loss)
+    cost = None  # needed only to judge a step: not computed when the first step is trusted
     for _ in range(max_iter):
         w = loss_weights(e, f, loss)
-        A = _curvature(Jt, e, w, f, loss)
+        A, newton = _curvature(Jt, e, w, f, loss)
         try:
             A_inv = np.linalg.inv(A)
         except np.linalg.LinAlgError as err:
@@ -120,10 +120,12 @@ def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
             step = _frozen_spin_step(A, grad, prob, x)
         if np.all(np.abs(step) <= tol * se) or (
                 trust_one_step is not None and n_eval == 1 and np.all(np.abs(step) <= trust_one_step * se)):
-            state = (e, Jt, scale)  # the curvature and scores barely change over such a step
+            state = (e, Jt, scale, w, newton)  # the curvature and scores barely change over such a step
             x = x + step
             converged = True
             break
+        if cost is None:
+            cost = robust_cost(e, f, loss)
         for _ in range(12):  # step halving
             new_e = prob.fun(x + step)
             n_eval += 1
@@ -144,15 +146,17 @@ def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
 
 def _curvature(Jt, e, w, f, loss):
     """5x5 curvature of the robust cost: Newton's ``sum psi'(e) J J^T`` where it is positive
-    definite (quadratic convergence near the optimum), else the IRLS ``sum w J J^T``."""
-    A = (Jt * loss_slopes(e, f, loss)) @ Jt.T
-    damp = 1e-14 * np.trace(A) + 1e-9 * np.abs(np.diag(A))
+    definite (quadratic convergence near the optimum), else the IRLS ``sum w J J^T``; damped.
+    Also the undamped Newton matrix (the sandwich covariance's bread)."""
+    newton = (Jt * loss_slopes(e, f, loss)) @ Jt.T
+    damp = 1e-14 * np.trace(newton) + 1e-9 * np.abs(np.diag(newton))
+    A = newton
     try:
         np.linalg.cholesky(A + np.diag(damp))
     except np.linalg.LinAlgError:
         A = (Jt * w) @ Jt.T
         damp = 1e-14 * np.trace(A) + 1e-9 * np.diag(A)
-    return A + np.diag(damp)
+    return A + np.diag(damp), newton
 
 
 def _frozen_spin_step(A, grad, prob, x):
@@ -176,7 +180,7 @@ def robust_cost(e: np.ndarray, f: float, loss: str) -> float:
 
 def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: float,
                          loss: str = "soft_l1", n_clusters: int = 24,
-                         state: tuple | None = None) -> tuple[float, float]:
+                         state: tuple | None = None, arc: np.ndarray | None = None) -> tuple[float, float]:
     """Standard error of kappa (1/m): classical and cluster-robust sandwich.
 
     The M-estimator covariance ``A^-1 B A^-1`` uses ``A = sum psi'(e) J J^T``
@@ -187,8 +191,8 @@ def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: f
 
     Parameters
     ----------
-    points : ndarray of shape (N, 3)
-        The inliers the fit used (m).
+    points : ndarray of shape (N, 3) or None
+        The inliers the fit used (m); None when ``state`` and ``arc`` are given.
     frame : CylinderFrame
         The fitted cylinder.
     f_scale, loss : float, str
@@ -196,27 +200,32 @@ def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: f
     n_clusters : int
         Bins along the arc.
     state : tuple, optional
-        ``RefineResult.state`` of a :func:`polish` on the same points (saves
-        a pass over them).
+        ``RefineResult.state`` of a :func:`polish` on the same points with the
+        same ``f_scale`` and ``loss`` (saves passes over them).
+    arc : ndarray of shape (N,), optional
+        The points' arc positions in ``frame`` (m, :func:`calib.cylinder_lsq.arc_position`;
+        saves another).
 
     Returns
     -------
     se_iid, se_cluster : float
         Standard errors of kappa (1/m).
     """
-    points = np.asarray(points, dtype=float)
     if state is None:
-        prob = CylinderProblem(points, frame)
+        prob = CylinderProblem(np.asarray(points, dtype=float), frame)
         e, Jt = prob.fun_jac(prob.x0())
         state = (e, Jt, prob.scale)
-    e, Jt, scale = state
-    w = loss_weights(e, f_scale / scale, loss)
-    slope = loss_slopes(e, f_scale / scale, loss)
-    A_inv = np.linalg.pinv((Jt * slope) @ Jt.T, rcond=1e-12, hermitian=True)
+    e, Jt, scale = state[:3]
+    if len(state) == 5:  # polish's weights and Newton matrix at these residuals
+        w, newton = state[3:]
+    else:
+        w = loss_weights(e, f_scale / scale, loss)
+        newton = (Jt * loss_slopes(e, f_scale / scale, loss)) @ Jt.T
+    A_inv = np.linalg.pinv(newton, rcond=1e-12, hermitian=True)
     p, n = Jt.shape
     score = Jt * (w * e)
     B_iid = score @ score.T * n / max(n - p, 1)
-    s = arc_position(points, frame)
+    s = arc_position(points, frame) if arc is None else arc
     g = min(n_clusters, max(n // 50, 2))
     edges = np.quantile(s[::max(len(s) // 20_000, 1)], np.linspace(0, 1, g + 1)[1:-1])
     bins = np.searchsorted(edges, s)

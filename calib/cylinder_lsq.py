@@ -15,9 +15,10 @@ kappa near 0 and an honest error bar, not a singular radius (cf. Lukacs,
 Marshall & Martin 1998, "Faithful least-squares fitting of spheres,
 cylinders, cones and tori").
 
-:func:`refine` runs :func:`scipy.optimize.least_squares` (trust region,
-robust loss, analytic Jacobian) over 5 parameters: a rotation vector of the
-frame (origin fixed), the shift ``rho`` of the origin along the normal, and
+:func:`refine` runs a Levenberg-Marquardt trust region (robust loss by
+iteratively reweighted normal equations, analytic Jacobian; numpy only, as
+importing scipy.optimize would cost more than the fit) over 5 parameters:
+a rotation vector of the frame (origin fixed), the shift ``rho`` of the origin along the normal, and
 kappa, in coordinates centred on the origin and scaled by the points'
 spread (so the problem is well conditioned at any position and size).
 :mod:`calib.cylinder_irls` solves the same problem on a million points and
@@ -29,13 +30,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
 
 from airmat.errors import ConvergenceError
 
 __all__ = ["CylinderFrame", "CylinderProblem", "left_jacobian", "residuals", "residuals_and_jacobian",
-           "arc_position", "refine", "RefineResult"]
+           "arc_position", "arc_from_local", "distance_from_local", "refine", "RefineResult",
+           "rotation_matrix"]
 
 
 @dataclass(frozen=True)
@@ -71,20 +71,37 @@ class CylinderFrame:
 
 
 def _distance(X, Z, k, derivatives=False):
-    """Signed distance to the surface, and optionally its partials in X, Z and k."""
+    """Signed distance to the surface, and optionally its partials in X, Z and k.
+
+    Written with in-place operations: on a million points every temporary
+    array is a pass over memory.
+    """
     kX = k * X
-    u = 1.0 - k * Z
-    S = np.sqrt(u * u + kX * kX)
-    s = X * X + Z * Z
-    D = 1.0 + S
-    N = 2.0 * Z - k * s
+    u = k * Z
+    np.subtract(1.0, u, out=u)
+    S = u * u
+    S += kX * kX
+    np.sqrt(S, out=S)
+    s = X * X
+    s += Z * Z
+    D = S + 1.0
+    N = 2.0 * Z
+    N -= k * s
     e = N / D
     if not derivatives:
         return e
-    S = np.maximum(S, np.finfo(float).tiny)  # 0 only for a point exactly on the axis
-    dX = -kX / S
-    dZ = u / S
-    dk = -(s * D + N * (Z - N) / S) / (D * D)  # k s - Z = Z - N
+    np.maximum(S, np.finfo(float).tiny, out=S)  # 0 only for a point exactly on the axis
+    dX = np.divide(kX, S, out=kX)
+    np.negative(dX, out=dX)
+    dZ = np.divide(u, S, out=u)
+    dk = Z - N  # k s - Z = Z - N
+    dk *= N
+    dk /= S
+    s *= D
+    dk += s
+    D *= D
+    dk /= D
+    np.negative(dk, out=dk)
     return e, dX, dZ, dk
 
 
@@ -111,10 +128,34 @@ def arc_position(points: np.ndarray, frame: CylinderFrame) -> np.ndarray:
     Tends to ``X`` as kappa -> 0, so flat specimens bin the same way.
     """
     X, Z = frame.local(np.asarray(points, dtype=float))
-    k = frame.kappa
+    return arc_from_local(X, Z, frame.kappa)
+
+
+def arc_from_local(X: np.ndarray, Z: np.ndarray, kappa: float) -> np.ndarray:
+    """:func:`arc_position` from the coordinates ``X, Z`` (m) of :meth:`CylinderFrame.local` (saves a pass)."""
+    k = kappa
     if abs(k) * np.max(np.abs(X), initial=0.0) < 1e-9:
         return X
     return np.arctan2(k * X, 1.0 - k * Z) / k
+
+
+def distance_from_local(X: np.ndarray, Z: np.ndarray, kappa: float) -> np.ndarray:
+    """:func:`residuals` from the coordinates ``X, Z`` (m) of :meth:`CylinderFrame.local` (saves a pass)."""
+    return _distance(X, Z, kappa)
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """(3, 3) matrix of ``w -> v x w``."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def rotation_matrix(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) of rotation vector ``w`` (radians), by Rodrigues' formula."""
+    th = float(np.linalg.norm(w))
+    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    if th < 1e-6:  # series: the closed form loses precision at tiny angles
+        return np.eye(3) + (1.0 - th**2 / 6.0) * K + (0.5 - th**2 / 24.0) * (K @ K)
+    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / th**2 * (K @ K)
 
 
 def left_jacobian(w: np.ndarray) -> np.ndarray:
@@ -129,7 +170,7 @@ def left_jacobian(w: np.ndarray) -> np.ndarray:
 class CylinderProblem:
     """Normalized coordinates and the residual/Jacobian closures of one fit.
 
-    Shared by :func:`refine` (scipy's least_squares) and
+    Shared by :func:`refine` (Levenberg-Marquardt) and
     :func:`calib.cylinder_irls.polish` (Gauss-Newton on a million points).
 
     Coordinates are stored transposed, (3, N), and the Jacobian is built as
@@ -149,7 +190,7 @@ class CylinderProblem:
         self.k0 = frame.kappa * scale
 
     def _frame(self, x):
-        rot = Rotation.from_rotvec(x[:3]).as_matrix()
+        rot = rotation_matrix(x[:3])
         return rot @ self.t0, rot @ self.n0, rot @ self.a0
 
     def fun(self, x):
@@ -163,19 +204,17 @@ class CylinderProblem:
     def fun_jac(self, x):
         """Residuals (N,) and transposed Jacobian (5, N) in one pass."""
         t, n, _ = self._frame(x)
-        X, Z = t @ self.wT, n @ self.wT - x[3]
-        e, dX, dZ, dk = _distance(X, Z, x[4], derivatives=True)
         # d(X, Z)/d(rotation) = (t x w, n x w)^T J_l, so the rotation rows are
-        # J_l^T (a x w) with a = dX t + dZ n per point
-        a = np.outer(t, dX)
-        a += np.outer(n, dZ)
-        w0, w1, w2 = self.wT
-        g = np.empty_like(self.wT)
-        np.subtract(a[1] * w2, a[2] * w1, out=g[0])
-        np.subtract(a[2] * w0, a[0] * w2, out=g[1])
-        np.subtract(a[0] * w1, a[1] * w0, out=g[2])
+        # J_l^T (a x w) = dX J_l^T [t]x w + dZ J_l^T [n]x w with a = dX t + dZ n per
+        # point: X, Z and those two 3-vectors are one (8, 3) @ (3, N) product
+        lt = left_jacobian(x[:3]).T
+        P = np.vstack([t, n, lt @ _skew(t), lt @ _skew(n)]) @ self.wT
+        X, Z = P[0], P[1] - x[3]
+        e, dX, dZ, dk = _distance(X, Z, x[4], derivatives=True)
         Jt = np.empty((5, len(e)))
-        np.matmul(left_jacobian(x[:3]).T, g, out=Jt[:3])
+        np.multiply(P[2:5], dX, out=Jt[:3])
+        P[5:8] *= dZ
+        Jt[:3] += P[5:8]
         np.negative(dZ, out=Jt[3])
         Jt[4] = dk
         return e, Jt
@@ -198,23 +237,30 @@ class RefineResult:
     frame : CylinderFrame
         The fitted cylinder.
     converged : bool
-        Whether least_squares met a tolerance (status > 0).
+        Whether a tolerance was met.
     n_iter : int
         Function evaluations.
     message : str
-        least_squares' message.
+        Why it stopped.
     """
 
     frame: CylinderFrame
     converged: bool
     n_iter: int
     message: str
-    state: tuple | None = None  # (e, Jt, scale) at (or within tol of) the solution, from polish
+    state: tuple | None = None  # (e, Jt, scale[, w, newton]) at (or within tol of) the solution, from polish
 
 
 def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: str = "soft_l1",
            max_nfev: int = 50, tol: float = 1e-10) -> RefineResult:
     """Robust geometric least-squares fit of a cylinder, starting from ``frame``.
+
+    Levenberg-Marquardt: the 5x5 normal equations of the robust cost
+    (weights ``rho'`` of the loss, as iteratively reweighted least squares),
+    damped by ``lam * diag``; a step that lowers the cost is taken and the
+    damping relaxed, one that does not is refused and the damping raised.
+    The damping keeps a far start (a RANSAC circle) from overshooting, as a
+    trust region does.
 
     Parameters
     ----------
@@ -225,11 +271,13 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     f_scale : float
         Residual scale of the robust loss (m), about the noise standard deviation.
     loss : str
-        A :func:`scipy.optimize.least_squares` loss ("soft_l1", "huber", "cauchy", "linear").
+        A loss of :func:`calib.cylinder_irls.loss_weights` ("soft_l1", "huber",
+        "cauchy", "arctan", "linear"), as scipy's least_squares defines them.
     max_nfev : int
         Most function evaluations.
     tol : float
-        ``ftol``, ``xtol`` and ``gtol`` of least_squares (relative).
+        Converged when the cost falls by less than ``tol`` relatively, or the
+        step is below ``tol`` relative to the parameters.
 
     Returns
     -------
@@ -240,11 +288,47 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     airmat.errors.ConvergenceError
         If the fit produced non-finite parameters.
     """
+    from calib.cylinder_irls import loss_weights, robust_cost  # that module builds on this one
+
     prob = CylinderProblem(np.asarray(points, dtype=float), frame)
-    scale = prob.scale
-    res = least_squares(prob.fun, prob.x0(), jac=prob.jac, loss=loss, f_scale=f_scale / scale,
-                        method="trf", x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
-    if not np.all(np.isfinite(res.x)):
-        raise ConvergenceError("cylinder least squares diverged (non-finite parameters)", x=res.x)
-    return RefineResult(frame=prob.frame(res.x), converged=bool(res.status > 0), n_iter=int(res.nfev),
-                        message=str(res.message))
+    f = f_scale / prob.scale
+    x = prob.x0()
+    e, Jt = prob.fun_jac(x)
+    cost, nfev, lam = robust_cost(e, f, loss), 1, 1e-3
+    status, message = 0, f"stopped after {max_nfev} function evaluations"
+    while nfev < max_nfev:
+        w = loss_weights(e, f, loss)
+        A = (Jt * w) @ Jt.T
+        g = Jt @ (w * e)
+        if not np.all(np.isfinite(A)) or not np.all(np.isfinite(g)):
+            raise ConvergenceError("cylinder least squares diverged (non-finite parameters)", x=x)
+        if np.max(np.abs(g)) <= tol * max(cost, np.finfo(float).tiny):
+            status, message = 1, "the gradient vanished"
+            break
+        d = np.diag(A) + 1e-12 * np.trace(A)
+        try:
+            step = -np.linalg.solve(A + lam * np.diag(d), g)
+        except np.linalg.LinAlgError:
+            lam *= 10.0
+            continue
+        if np.linalg.norm(step) <= tol * (tol + np.linalg.norm(x)):
+            status, message = 2, "the step fell below the tolerance"
+            break
+        new_e, new_Jt = prob.fun_jac(x + step)  # one pass; most steps are taken
+        nfev += 1
+        new_cost = robust_cost(new_e, f, loss) if np.all(np.isfinite(new_e)) else np.inf
+        if new_cost < cost:
+            x, drop, cost = x + step, cost - new_cost, new_cost
+            lam = max(lam / 3.0, 1e-12)
+            if drop <= tol * cost:
+                status, message = 3, "the cost fell below the tolerance"
+                break
+            e, Jt = new_e, new_Jt
+        else:
+            lam *= 4.0
+            if lam > 1e12:  # no step lowers the cost: at the minimum to machine precision
+                status, message = 4, "no step lowers the cost"
+                break
+    if not np.all(np.isfinite(x)):
+        raise ConvergenceError("cylinder least squares diverged (non-finite parameters)", x=x)
+    return RefineResult(frame=prob.frame(x), converged=status > 0, n_iter=nfev, message=message)

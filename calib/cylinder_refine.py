@@ -15,7 +15,7 @@ import numpy as np
 
 from airmat.errors import NotACylinderError
 from calib.cylinder_irls import polish
-from calib.cylinder_lsq import residuals
+from calib.cylinder_lsq import arc_from_local, distance_from_local, residuals
 from calib.groove_bands import groove_bands
 
 __all__ = ["surface_spread", "full_resolution_fit"]
@@ -86,8 +86,10 @@ def full_resolution_fit(cand, frame, *, sigma, band_sigmas, loss, f_scale, n_sub
         if settled:
             break
     if sub is not cand:
-        keep = np.abs(residuals(cand, frame)) < band_sigmas * sigma
-        keep[keep] = ~grooves.classify(cand[keep], frame)
+        X, Z = frame.local(cand)  # one pass gives the residuals and the arc positions
+        keep = np.abs(distance_from_local(X, Z, frame.kappa)) < band_sigmas * sigma
+        idx = np.flatnonzero(keep)
+        keep[idx[grooves.classify_arc(arc_from_local(X[idx], Z[idx], frame.kappa))]] = False
         # the subset's fit is off by its own sampling error, sqrt(N / n) full-set errors
         trust = 3.0 * np.sqrt(np.count_nonzero(keep) / max(np.count_nonzero(used), 1))
         result = polish(cand[keep], frame, f_scale=f_scale, loss=loss, max_iter=8, hold_axis=hold_axis,

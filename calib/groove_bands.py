@@ -58,7 +58,14 @@ class GrooveBands:
         """(M,) bool: which of other ``points`` fall in the excluded bands (same, or a nearby, frame)."""
         if not self.bad.any():
             return np.zeros(len(points), dtype=bool)
-        return self.bad[_band_index(arc_position(points, frame), self.lo, self.hi, len(self.bad))]
+        return self.classify_arc(arc_position(points, frame))
+
+    def classify_arc(self, s: np.ndarray) -> np.ndarray:
+        """(M,) bool: which arc positions ``s`` (m, :func:`calib.cylinder_lsq.arc_position`) fall in
+        the excluded bands."""
+        if not self.bad.any():
+            return np.zeros(len(s), dtype=bool)
+        return self.bad[_band_index(s, self.lo, self.hi, len(self.bad))]
 
 
 def groove_bands(points: np.ndarray, frame: CylinderFrame, *, sigma: float, seed=0,
@@ -168,10 +175,12 @@ def _dilate_runs(bad: np.ndarray, grow: float) -> np.ndarray:
 
 def _band_stats(e, cols, b, nb, valid):
     """Median residual and mean Jacobian columns of the valid bands."""
-    order = np.argsort(b, kind="stable")
-    splits = np.split(e[order], np.cumsum(np.bincount(b, minlength=nb))[:-1])
-    med = np.array([np.median(x) for x, ok in zip(splits, valid) if ok])
     counts = np.bincount(b, minlength=nb)
+    by_e = np.argsort(e)  # by residual, then by band (a stable radix sort of the small band numbers)
+    srt = e[by_e][np.argsort(b[by_e].astype(np.int16), kind="stable")]
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])[valid]
+    c = counts[valid]
+    med = 0.5 * (srt[start + (c - 1) // 2] + srt[start + c // 2])  # np.median of each band
     jbar = np.stack([np.bincount(b, cols[:, j], nb) for j in range(cols.shape[1])], axis=1)
     jbar = jbar[valid] / counts[valid, None]
     return med, jbar

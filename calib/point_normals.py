@@ -1,10 +1,12 @@
-"""Unit normals of a point cloud from its nearest neighbours (PCA), with scipy's k-d tree.
+"""Unit normals of a point cloud from its nearest neighbours (PCA), with pykdtree's k-d tree.
 
 The normal of a point is the eigenvector of the smallest eigenvalue of the
 covariance of its ``knn`` nearest neighbours (itself included), as
 open3d's ``estimate_normals`` computes it; the sign is arbitrary. One
-k-d tree query and one batched ``eigh`` over all points: no loop per
-point, single-threaded, so the result is the same on every run.
+k-d tree query (pykdtree: exact neighbours, so the result is the same on
+every run and thread count; it imports in milliseconds where
+``scipy.spatial`` takes a third of a second) and one batched ``eigh`` over
+all points: no loop per point.
 Lengths in metres.
 """
 
@@ -39,7 +41,7 @@ def normals_knn(points: np.ndarray, knn: int = 20) -> np.ndarray:
     >>> np.allclose(np.abs(n @ [-0.3, 0, 1]) / np.hypot(0.3, 1), 1)
     True
     """
-    from scipy.spatial import cKDTree
+    from pykdtree.kdtree import KDTree
 
     pts = np.asarray(points, dtype=float)
     if pts.ndim != 2 or pts.shape[1] != 3:
@@ -49,10 +51,10 @@ def normals_knn(points: np.ndarray, knn: int = 20) -> np.ndarray:
     k = min(int(knn), len(pts))
     centre = pts.mean(axis=0)
     local = pts - centre  # conditioning: clouds far from the origin keep their precision
-    _, idx = cKDTree(local).query(local, k=k)
+    _, idx = KDTree(local).query(local, k=k)
     nb = local[idx]                                       # (N, k, 3)
     nb = nb - nb.mean(axis=1, keepdims=True)
-    cov = np.einsum("nki,nkj->nij", nb, nb)
+    cov = np.matmul(nb.transpose(0, 2, 1), nb)  # batched 3xk @ kx3: several times faster than einsum
     normals = np.linalg.eigh(cov)[1][:, :, 0]
     big = np.take_along_axis(normals, np.argmax(np.abs(normals), axis=1)[:, None], axis=1)
     return normals * np.where(big < 0, -1.0, 1.0)

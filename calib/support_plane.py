@@ -243,7 +243,8 @@ def _bend_ratio(uv: np.ndarray, h: np.ndarray) -> float:
     for basis in (lin, quad):
         keep = np.ones(len(h), dtype=bool)
         for _ in range(10):  # refit without the worst residuals (clutter, grooves, other surfaces)
-            coef, *_ = np.linalg.lstsq(basis[keep], h[keep], rcond=None)
+            b = basis[keep]  # normal equations: 6x6, not an SVD of the (M, 6) basis (10x faster)
+            coef, *_ = np.linalg.lstsq(b.T @ b, b.T @ h[keep], rcond=None)
             r = np.abs(h - basis @ coef)
             new = r <= 3 * np.median(r) + np.finfo(float).tiny
             if np.array_equal(new, keep):

@@ -40,25 +40,45 @@ def voxel_moments(points: np.ndarray, voxel: float):
     cov : ndarray of shape (V, 3, 3)
         Covariance (normalized by the count) of each voxel (m^2).
     """
-    lo = points.min(axis=0)
-    ijk = np.floor((points - lo) / voxel).astype(np.int64)
-    dims = ijk.max(axis=0) + 1
-    key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
-    _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
-    local = points - lo - ijk * voxel  # within [0, voxel): no cancellation far from the origin
+    # column by column: contiguous 1-D passes, several times faster than axis=0 on (N, 3)
+    cols = [np.ascontiguousarray(points[:, j]) for j in range(3)]
+    lo = np.array([c.min() for c in cols])
+    ijk = [np.floor((c - lo[j]) / voxel).astype(np.int64) for j, c in enumerate(cols)]
+    dims = np.array([i.max() for i in ijk]) + 1
+    key = (ijk[0] * dims[1] + ijk[1]) * dims[2] + ijk[2]
+    inverse, count = _unique_keys(key, int(np.prod(dims)))
+    # within [0, voxel): no cancellation far from the origin
+    local = [c - lo[j] - ijk[j] * voxel for j, c in enumerate(cols)]
     nv = len(count)
-    s1 = np.stack([np.bincount(inverse, local[:, i], nv) for i in range(3)], axis=1)
+    s1 = np.stack([np.bincount(inverse, local[i], nv) for i in range(3)], axis=1)
     s2 = np.empty((nv, 3, 3))
     for i in range(3):
         for j in range(i, 3):
-            s2[:, i, j] = s2[:, j, i] = np.bincount(inverse, local[:, i] * local[:, j], nv)
+            s2[:, i, j] = s2[:, j, i] = np.bincount(inverse, local[i] * local[j], nv)
     mean = s1 / count[:, None]
     cov = s2 / count[:, None, None] - mean[:, :, None] * mean[:, None, :]
-    corners = np.empty((nv, 3))
-    corners[inverse] = ijk  # every point of a voxel writes the same corner
+    first = np.zeros(nv, dtype=np.int64)
+    first[inverse] = np.arange(len(key))  # a point of each voxel: its corner is that voxel's
+    corners = np.column_stack([i[first] for i in ijk])
     centroid = lo + corners * voxel + mean
     return inverse, count, centroid, cov
 
+
+
+def _unique_keys(key: np.ndarray, n_cells: int):
+    """``np.unique(key, return_inverse=True, return_counts=True)[1:]`` for keys in [0, n_cells).
+
+    When the grid is not much larger than the cloud, one ``bincount`` over the
+    cells replaces the sort (same order, same result, several times faster).
+    """
+    if n_cells > max(8 * len(key), 1 << 20):
+        _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+        return inverse, count
+    dense = np.bincount(key, minlength=n_cells)
+    occupied = np.flatnonzero(dense)
+    index = np.zeros(n_cells, dtype=np.int64)
+    index[occupied] = np.arange(len(occupied))
+    return index[key], dense[occupied]
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,9 @@ suffix                    reader module         library
 .ply .obj .stl .off       ``mesh_reader``       trimesh; binary PLY point clouds: numpy
 .glb .gltf                ``mesh_reader``       trimesh (scenes with their node poses)
 .e57                      ``e57_reader``        pye57 (one scan, or all with their poses)
-.las .laz                 ``las_reader``        laspy with the lazrs LAZ backend
-.pcd                      ``pcd_reader``        pandas (ascii); open3d (binary, binary_compressed)
-.pts .xyz .txt            ``text_reader``       pandas, numpy fallback (columns, optional header/count line)
+.las .laz                 ``las_reader``        laspy with the lazrs LAZ backend (parallel)
+.pcd                      ``pcd_reader``        pyarrow/pandas (ascii); numpy (binary); open3d (compressed)
+.pts .xyz .txt            ``text_reader``       pyarrow, pandas and numpy fallbacks (columns, header/count line)
 ========================  ====================  ============================================================
 """
 

@@ -1,4 +1,4 @@
-"""LAS and LAZ through laspy (LAZ decompressed by its lazrs backend).
+"""LAS and LAZ through laspy (LAZ decompressed by its lazrs backend, in parallel).
 
 LAS stores integers with a scale and an offset per axis; laspy returns the
 scaled coordinates in float64. Surveys are georeferenced: the unit is the
@@ -22,7 +22,8 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     import laspy
 
     try:
-        las = laspy.read(str(path))
+        # LazrsParallel decompresses the chunks on every core; same points as the serial backend
+        las = laspy.read(str(path), laz_backend=(laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs))
     except OSError as err:
         raise InputError(f"cannot read: {err.strerror or err}", path=path) from None
     except Exception as err:  # laspy/lazrs raise several types for a bad file

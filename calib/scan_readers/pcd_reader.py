@@ -1,9 +1,10 @@
 """PCD (PCL's format: ascii, binary, binary_compressed; organized clouds with NaN) through open3d.
 
-An ascii PCD is read with pandas' C parser (:func:`calib.scan_readers.text_reader.read_columns_fast`,
-about 5 times faster than open3d's), a binary one with ``np.fromfile`` and a
-structured dtype built from the header (FIELDS, SIZE, TYPE, COUNT); open3d
-reads binary_compressed bodies and whatever those two refuse.
+An ascii PCD is read with pyarrow's CSV reader, or pandas' C parser
+(:func:`calib.scan_readers.text_reader.read_columns_fast`, 5-10 times faster
+than open3d's), a binary one with ``np.fromfile`` and a structured dtype
+built from the header (FIELDS, SIZE, TYPE, COUNT); open3d reads
+binary_compressed bodies and whatever those two refuse.
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ def _read_ascii(path: Path, header: dict) -> np.ndarray | None:
         xyz = read_columns_fast(fh, header["_skip"], None, cols, nan=True)
     if xyz is None:
         return None
-    xyz = xyz[:, np.argsort(np.argsort(cols))]  # pandas returns the columns in file order
+    xyz = xyz[:, np.argsort(np.argsort(cols))]  # the columns come in file order
     return xyz
 
 

@@ -1,14 +1,18 @@
-"""PTS, XYZ and TXT point columns through pandas' C parser, numpy as the strict fallback.
+"""PTS, XYZ and TXT point columns through pyarrow's CSV reader, pandas and numpy as strict fallbacks.
 
 Layouts seen in the wild: ``x y z [intensity r g b ...]`` separated by blanks,
 commas or semicolons; an optional header line of names (CloudCompare's
 ``//X,Y,Z``), an optional first line holding the point count (Leica and
 Metashape ``.pts``; open3d reads it as a point), ``#`` comments.
 
-``pandas.read_csv`` (C engine) reads the columns 3-5 times faster than
-``numpy.loadtxt`` and to the same bits. Anything it does not read cleanly
-(a short row, a word, ``nan``, a ``//`` comment below the header) goes to
-``numpy.loadtxt``, which reads it or names the row that is wrong.
+``pyarrow.csv.read_csv`` parses on every core and reads a single-character
+delimiter (one blank, a comma, a semicolon) about twice as fast as
+``pandas.read_csv`` (C engine), which is itself 3-5 times faster than
+``numpy.loadtxt``; all three read the same bits. What pyarrow does not read
+cleanly (runs of blanks or tabs, an empty field, a ``#`` comment) goes to
+pandas; what pandas does not (a short row, a word, ``nan``, a ``//``
+comment below the header) goes to ``numpy.loadtxt``, which reads it or
+names the row that is wrong.
 """
 
 from __future__ import annotations
@@ -47,12 +51,17 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
 
 def read_columns_fast(fh, skip: int, delimiter: str | None, usecols=(0, 1, 2), *,
                       nan: bool = False) -> np.ndarray | None:
-    """Columns ``usecols`` of the rows after ``skip`` lines, float64, or None if pandas cannot read them all.
+    """Columns ``usecols`` (in file order) of the rows after ``skip`` lines, float64, or None if neither
+    pyarrow nor pandas reads them all.
 
     Strict: empty fields, words and (unless ``nan``) ``nan`` make it return
     None (the caller falls back to a slower reader), never a silently filled
     value.
     """
+    out = _read_arrow(fh, skip, delimiter, usecols, nan=nan)
+    if out is not None:
+        return out
+    fh.seek(0)
     import pandas as pd
 
     na = dict(keep_default_na=False, na_values=["nan", "NaN", "-nan"]) if nan else dict(na_filter=False)
@@ -63,6 +72,30 @@ def read_columns_fast(fh, skip: int, delimiter: str | None, usecols=(0, 1, 2), *
         return None
     out = table.to_numpy(dtype=float)
     return out if out.ndim == 2 and out.shape[1] == len(usecols) and len(out) else None
+
+
+def _read_arrow(fh, skip: int, delimiter: str | None, usecols, *, nan: bool) -> np.ndarray | None:
+    """Columns ``usecols`` by pyarrow's multi-threaded CSV reader (one-character delimiter), or None.
+
+    No value counts as missing: an empty field or a word fails the float
+    conversion (None); ``nan`` parses as NaN and is refused unless ``nan``.
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pv
+
+    names = [f"f{i}" for i in sorted(usecols)]  # in file order, as pandas returns them
+    try:
+        table = pv.read_csv(
+            fh, read_options=pv.ReadOptions(skip_rows=skip, autogenerate_column_names=True),
+            parse_options=pv.ParseOptions(delimiter=delimiter or " ", quote_char=False),
+            convert_options=pv.ConvertOptions(include_columns=names, column_types=dict.fromkeys(names, pa.float64()),
+                                              null_values=[], strings_can_be_null=False))
+    except (pa.ArrowException, ValueError, KeyError):
+        return None
+    if table.num_rows == 0 or table.num_columns != len(names):
+        return None
+    out = np.column_stack([table.column(name).to_numpy() for name in names])
+    return out if nan or not np.isnan(out).any() else None
 
 
 def _layout(lines: list[str], path: Path):
