@@ -302,7 +302,7 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
     if frac < min_inlier_fraction:
         raise NotACylinderError(f"only {100 * frac:.0f}% inliers (need {100 * min_inlier_fraction:.0f}%)"
                                 + _why(scatter), inlier_fraction=frac)
-    rms = float(np.sqrt(np.mean(e[used] ** 2)))  # the fitted face, off the groove bands
+    rms = float(np.sqrt(np.mean(np.compress(used, e) ** 2)))  # the fitted face, off the groove bands
     inl_idx = np.flatnonzero(inl)[::stride]
     inl_sub = cand[inl_idx]
     ext = float(np.linalg.norm(np.ptp(inl_sub, axis=0)))
@@ -320,7 +320,7 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
                                 rms=rms, noise=noise)
     se_iid, se_cl = kappa_standard_error(None, frame, f_scale=f_scale, loss=loss, n_clusters=n_clusters,
                                          state=final.state,
-                                         arc=arc_from_local(X[used], Z[used], frame.kappa))
+                                         arc=arc_from_local(np.compress(used, X), np.compress(used, Z), frame.kappa))
     kappa, se = abs(frame.kappa), max(se_iid, se_cl)
     flat = kappa < 2 * se
     center = frame.origin if flat else frame.origin + frame.normal / frame.kappa
@@ -334,7 +334,7 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
                        center=center, inlier_fraction=frac, rms=rms, arc_deg=arc, n_points=n_points,
                        n_inliers=n_inl, n_support=n_support, noise=noise, kappa_se_iid=se_iid,
                        converged=final.converged, n_iter=n_iter,
-                       residual=float(np.sqrt(np.mean(e[inl] ** 2))), message=final.message)
+                       residual=float(np.sqrt(np.mean(np.compress(inl, e) ** 2))), message=final.message)
 
 
 def _why(scatter) -> str:

@@ -3,8 +3,12 @@
 The random steps of :func:`calib.cylinder_fit.fit_cylinder` (subsets, plane
 search, RANSAC) can land on different local optima on a hard scan (a real
 mug scan gave R = 51.4, 43.3, 38.1, 38.1 mm for seeds 0-3). This runs the
-fit with ``n_seeds`` seeds (the extra ones on a random subset, for speed)
-and compares the curvatures against their standard errors:
+fit with ``n_seeds`` seeds (the extra ones on a random subset, for speed:
+50,000 points, 25,000 for scans over 100,000 points, where they run in a
+second thread while the main fit makes its passes over every point; each
+fit is a function of its points and seed alone, so the result has the same
+bits as running them one after the other) and compares the curvatures
+against their standard errors:
 
 - all agree within ``n_sigma`` combined standard errors: the first fit;
 - they disagree, but by at most ``max_spread_rel`` of kappa: the first fit
@@ -23,12 +27,31 @@ import numpy as np
 from airmat.errors import NotACylinderError
 from calib.cylinder_fit import CylinderFit, fit_cylinder
 
-__all__ = ["fit_cylinder_stable"]
+__all__ = ["fit_cylinder_stable", "check_subset_size"]
 
 log = logging.getLogger(__name__)
 
 
-def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int = 50_000,
+#: a scan larger than this gets the smaller check subsets, fitted in a second thread
+LARGE_SCAN = 100_000
+
+
+def check_subset_size(n_points: int, small: int = 50_000, large: int = 25_000) -> int:
+    """Points of each check fit: all of a small scan's up to ``small``, ``large`` for a large scan.
+
+    The check's tolerance is ``3 hypot(se_main, se_check)``, dominated by the
+    check fit's standard error. On the synthetic specimen scans of
+    ``bench/bench_cylinder.py`` (kappa 2, 5 and 10 1/m, arcs 60-120 degrees,
+    10 seeds each) it is a median 0.07 % of kappa for a 100k-point scan with
+    50k-point checks, 0.06 % for a 1.28M-point scan with 50k-point checks and
+    0.082-0.084 % with 25k-point checks: a seed disagreement of 0.1 % of
+    kappa (the accuracy goal) is still caught, and one of 2 % still refused,
+    at half the cost.
+    """
+    return min(n_points, small) if n_points <= LARGE_SCAN else large
+
+
+def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int | None = None,
                         n_sigma: float = 3.0, max_spread_rel: float = 0.02, **options) -> CylinderFit:
     """:func:`calib.cylinder_fit.fit_cylinder` compared over ``n_seeds`` seeds.
 
@@ -40,8 +63,10 @@ def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int
         Seed of the main fit; the others derive from it.
     n_seeds : int
         Fits compared (1: the plain fit).
-    n_check_points : int
-        The extra fits run on a random subset of at most this many points.
+    n_check_points : int, optional
+        The extra fits run on a random subset of at most this many points
+        (default :func:`check_subset_size`: 50,000, or 25,000 for a scan of
+        more than 100,000 points).
     n_sigma : float
         Fits agree when their kappas differ by less than this many combined
         standard errors.
@@ -64,18 +89,29 @@ def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int
         ``max_spread_rel``.
     """
     pts = np.asarray(points, dtype=float)
-    main = fit_cylinder(pts, seed=seed, **options)
     if n_seeds <= 1:
-        return main
+        return fit_cylinder(pts, seed=seed, **options)
     rng = np.random.default_rng([int(seed), 7919])
-    others = []
-    for s in rng.integers(2**31, size=n_seeds - 1):
-        sub = pts[np.random.default_rng(s).choice(len(pts), n_check_points, replace=False)] \
-            if len(pts) > n_check_points else pts
+    if n_check_points is None:
+        n_check_points = check_subset_size(len(pts))
+    seeds = [int(s) for s in rng.integers(2**31, size=n_seeds - 1)]
+
+    def checks():
+        return [f for s in seeds if (f := _check_fit(pts, s, n_check_points, options)) is not None]
+
+    if len(pts) <= LARGE_SCAN:  # one after the other: the checks cost as much as the main fit
+        main = fit_cylinder(pts, seed=seed, **options)
+        others = checks()
+    else:  # the checks run on a second core while the main fit does its million-point passes
+        from concurrent.futures import ThreadPoolExecutor
+
+        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="seed-check")
         try:
-            others.append(fit_cylinder(sub, seed=int(s), **options))
-        except NotACylinderError as err:  # a subset may be too sparse; the main fit stands
-            log.debug("check fit (seed %d) refused: %s", s, err)
+            pending = pool.submit(checks)
+            main = fit_cylinder(pts, seed=seed, **options)
+            others = pending.result()
+        finally:
+            pool.shutdown(wait=False, cancel_futures=True)
     if not others:
         return main
     diff = np.array([abs(f.kappa - main.kappa) for f in others])
@@ -92,3 +128,14 @@ def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int
     raise NotACylinderError(f"unstable fit: seeds give R = {radii} mm (differ by {100 * spread / max(main.kappa, 1e-300):.1f}% "
                             f"of kappa, more than the standard error); crop the scan to the specimen or "
                             f"pass --noise-mm", kappa_spread=spread)
+
+
+def _check_fit(pts, seed, n_check_points, options):
+    """The fit of a random subset of ``n_check_points`` points with ``seed``, None when it is refused."""
+    sub = pts[np.random.default_rng(seed).choice(len(pts), n_check_points, replace=False)] \
+        if len(pts) > n_check_points else pts
+    try:
+        return fit_cylinder(sub, seed=seed, **options)
+    except NotACylinderError as err:  # a subset may be too sparse; the main fit stands
+        log.debug("check fit (seed %d) refused: %s", seed, err)
+        return None

@@ -217,6 +217,38 @@ def test_seeds_agree_on_a_clean_scan(spec):
     assert fit.kappa_se == fit_cylinder(spec.points, seed=0).kappa_se  # not widened
 
 
+def test_check_fits_use_all_of_a_small_scan_and_25k_of_a_large_one(monkeypatch):
+    import calib.cylinder_stability as cs
+
+    assert [cs.check_subset_size(n) for n in (40_000, 100_000, 100_001, 1_280_000)] == \
+        [40_000, 50_000, 25_000, 25_000]
+    real, sizes = cs.fit_cylinder, []
+
+    def counted(points, **kw):
+        sizes.append(len(points))
+        return real(points, **kw)
+
+    monkeypatch.setattr(cs, "fit_cylinder", counted)
+    big = specimen_scan(5.0, n_points=120_000, seed=5)
+    fit = fit_cylinder_stable(big.points, seed=0, n_seeds=3)
+    assert sorted(sizes) == [25_000, 25_000, 120_000] and fit.n_seeds == 3  # the checks run in a thread
+    assert fit.kappa_spread < 0.001 * fit.kappa  # a clean scan: the small checks agree to 0.1 %
+    assert abs(fit.kappa - 5.0) < 0.001 * 5.0
+
+
+def test_check_fits_in_a_thread_give_the_same_bits_as_one_after_the_other(monkeypatch):
+    import calib.cylinder_stability as cs
+
+    big = specimen_scan(4.0, n_points=110_000, arc_deg=70.0, seed=6)
+    threaded = fit_cylinder_stable(big.points, seed=2, n_seeds=3, n_check_points=25_000)
+    monkeypatch.setattr(cs, "LARGE_SCAN", 10**9)  # the small-scan path: sequential
+    serial = fit_cylinder_stable(big.points, seed=2, n_seeds=3, n_check_points=25_000)
+    assert threaded.n_seeds == serial.n_seeds == 3 and threaded.kappa_spread > 0
+    for field in dataclasses.fields(serial):
+        a, b = getattr(threaded, field.name), getattr(serial, field.name)
+        assert np.array_equal(a, b), field.name
+
+
 @pytest.mark.parametrize("fmt", ["pts", "xyz", "txt"])
 def test_fast_text_read_is_bit_identical_to_loadtxt(tmp_path, spec, fmt):
     from calib.scan_readers import read_cloud
