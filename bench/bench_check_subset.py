@@ -10,7 +10,7 @@ check fit, the standard deviation of their kappas, the median standard error
 and tolerance (all % of kappa), and the largest ``|dkappa| / tolerance`` (a
 value above 1 would widen kappa_se on a clean scan).
 
-Run:  .venv/bin/python bench/bench_check_subset.py --n 1280000 --subsets 50000,25000 --seeds 10
+Run:  .venv/bin/python bench/bench_check_subset.py --n 1280000 --subsets 50000,25000,20000 --seeds 10
       .venv/bin/python bench/bench_check_subset.py --n 100000 --subsets 50000 --seeds 10
 """
 
@@ -69,7 +69,7 @@ def markdown(table, n_seeds):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, default=1_280_000, help="points of each scan")
-    p.add_argument("--subsets", default="50000,25000", help="check-fit subset sizes, comma-separated")
+    p.add_argument("--subsets", default="50000,25000,20000", help="check-fit subset sizes, comma-separated")
     p.add_argument("--seeds", type=int, default=10, help="check fits per subset size")
     args = p.parse_args(argv)
     print(markdown(rows(args.n, [int(s) for s in args.subsets.split(",")], args.seeds), args.seeds))
