@@ -42,7 +42,12 @@ ROUNDS = 2
 _default_relax = surface_module.relax_to_target
 
 
-def _mid_metric_relax(uv, faces, target, **kw):
+def _mid_metric_relax(thickness):
+    """The default relaxation followed by ROUNDS relaxations in the mid-surface metric of a mattress this thick."""
+    return lambda uv, faces, target, **kw: _relax_mid(uv, faces, target, thickness, **kw)
+
+
+def _relax_mid(uv, faces, target, thickness, **kw):
     result = _default_relax(uv, faces, target, **kw)
     prob = _Problem(uv, faces, MeshProjector(target.vertices, target.faces), kw.get("k_a1", 1.0),
                     kw.get("k_a2", 0.2), kw.get("k_a3", 0.02))
@@ -56,16 +61,13 @@ def _mid_metric_relax(uv, faces, target, **kw):
             v = edges[:, end]
             for i in range(2):
                 kn += 0.5 * np.abs(curv.kappa[v, i]) * np.einsum("kd,kd->k", t, curv.directions[v, i]) ** 2
-        prob.rest = rest * (1.0 - 0.5 * THICKNESS * kn)
+        prob.rest = rest * (1.0 - 0.5 * thickness * kn)
         x = _iterate(prob, x.copy(), tol=1e-4, stall=1e-7, max_iter=1000, window=5, bar=None)[0]
     return dataclasses.replace(result, xyz=x)
 
 
-THICKNESS = 0.07
-
 
 def main(argv=None) -> int:
-    global THICKNESS
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", default="saddle,vault1")
     ap.add_argument("--refine", action="store_true")
@@ -77,8 +79,7 @@ def main(argv=None) -> int:
     print("|---|" + "---|" * (4 if args.refine else 2))
     for name in args.presets.split(","):
         base = designed_preset(name)
-        THICKNESS = base.mattress.thickness
-        surface_module.relax_to_target = _mid_metric_relax
+        surface_module.relax_to_target = _mid_metric_relax(base.mattress.thickness)
         try:
             mid = designed_preset(name)
         finally:

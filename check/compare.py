@@ -215,13 +215,13 @@ def realized_curvature(inflation, a, b, polylines, surface: str = "mid", *, meth
         raise ValueError(f"method must be 'turning' or 'circle', got {method!r}")
     t = np.linspace(0.0, 1.0, int(n))
     pts = np.stack([points_at_fractions(np.asarray(p, float), t) for p in polylines])     # (k, n, 2)
-    xyz = np.empty((k, len(t), 3))
+    xyz, up = np.empty((k, len(t), 3)), np.empty((k, len(t), 3))
     for name in set(faces):
         sel = faces == name
-        xyz[sel] = surface_at(inflation, pts[sel].reshape(-1, 2), name)[0].reshape(-1, len(t), 3)
+        face, normal = surface_at(inflation, pts[sel].reshape(-1, 2), name)
+        xyz[sel], up[sel] = face.reshape(-1, len(t), 3), normal.reshape(-1, len(t), 3)
     arc = np.linalg.norm(np.diff(xyz, axis=1), axis=2).sum(axis=1)
-    _, up = surface_at(inflation, np.concatenate([pts[:, 0], pts[:, -1]]))
-    ua, ub = up[:k], up[k:]
+    ua, ub = up[:, 0], up[:, -1]
     angle = np.arctan2(np.linalg.norm(np.cross(ua, ub), axis=1), np.einsum("kd,kd->k", ua, ub))
     # normals that spread apart along the dash: the top face is convex, the surface bends away from it
     sign = np.where(np.einsum("kd,kd->k", ub - ua, xyz[:, -1] - xyz[:, 0]) >= 0, 1.0, -1.0)

@@ -185,7 +185,8 @@ def pattern_coverage(mfield, strings, dashes, uv, *, width: float, height: float
     to_edge = _boundary_distance(uv, width, height)
     fams = {}
     for f, fam in enumerate(FAMILIES):
-        need = np.abs(mfield.kappa_at(f, uv)) >= kappa_min
+        kap = np.abs(mfield.kappa_at(f, uv))
+        need = kap >= kappa_min
         polys = [s.dash.polyline for s in strings if s.dash.family == fam]
         if not need.any():
             fams[fam] = FamilyCoverage(0, 0.0, 0.0, 0.0, 0.0, limit)
@@ -200,8 +201,7 @@ def pattern_coverage(mfield, strings, dashes, uv, *, width: float, height: float
         weak = ~edge & near_dash
         hole = ~edge & ~near_dash
         wide_weak = weak & (gap > limit)
-        kap = np.abs(mfield.kappa_at(f, uv[need]))
         fams[fam] = FamilyCoverage(int(need.sum()), float(np.percentile(gap, 95)), float(gap.max()),
                                    _max(gap, hole), _max(gap, edge), limit, _max(gap, weak),
-                                   float(np.median(kap[wide_weak])) if wide_weak.any() else float("nan"))
+                                   float(np.median(kap[need][wide_weak])) if wide_weak.any() else float("nan"))
     return Coverage(families=fams, L=float(L))
