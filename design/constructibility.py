@@ -58,6 +58,10 @@ class ConstructibilityReport:
         of Ŝ beyond the rim; both 0 when S covers the mattress (or nothing was given).
     warnings : list of str
         What the verdict does not count but a designer should know (Ω off S), with where.
+    metric : dict
+        The lengths σ is measured against: ``face`` (``"top"`` / ``"bottom"``: the named
+        face's metric, design.face_metric; ``"flat"``: Ω's) and ``min_ratio``, the
+        shortest rest length of that metric over Ω's (1 for Ω's own).
     """
 
     sigma: dict
@@ -69,6 +73,7 @@ class ConstructibilityReport:
     kappa_max: float = PAPER_KAPPA_MAX
     off_target: dict = field(default_factory=lambda: {"share": 0.0, "max": 0.0})
     warnings: list = field(default_factory=list)
+    metric: dict = field(default_factory=lambda: {"face": "flat", "min_ratio": 1.0})
 
     def table_row(self) -> str:
         """``σ min/avg/max | |κ1| avg // max | |κ2| avg // max`` as one Markdown table row body."""
@@ -77,11 +82,14 @@ class ConstructibilityReport:
                 f"{k2['avg']:.2f} // {k2['max']:.2f}")
 
 
-def edge_sigma(xyz, uv, faces):
-    """Edges (e, 2) and their length ratio σ = |edge on Ŝ| / |edge on Ω|, shape (e,)."""
+def edge_sigma(xyz, uv, faces, rest=None):
+    """Edges (e, 2) and their length ratio σ = |edge on Ŝ| / rest length, shape (e,).
+
+    ``rest`` (e,): the rest lengths (m) of ``mesh_edges(faces)``; default their lengths on Ω.
+    """
     edges = mesh_edges(np.asarray(faces))
     num = np.linalg.norm(xyz[edges[:, 0]] - xyz[edges[:, 1]], axis=1)
-    den = np.linalg.norm(uv[edges[:, 0]] - uv[edges[:, 1]], axis=1)
+    den = np.linalg.norm(uv[edges[:, 0]] - uv[edges[:, 1]], axis=1) if rest is None else np.asarray(rest, float)
     return edges, num / den
 
 
@@ -101,7 +109,7 @@ def _where(points_mm):
 
 
 def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
-                     kappa_max: float | None = None, off_target=None) -> ConstructibilityReport:
+                     kappa_max: float | None = None, off_target=None, metric=None) -> ConstructibilityReport:
     """Table-1 figures of Ŝ and whether the mattress can make it.
 
     Parameters
@@ -123,6 +131,9 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
     off_target : ndarray of shape (n,), optional
         Distance (m) of each vertex of Ŝ beyond S's rim, 0 on S
         (design.relax.RelaxResult.off_target); reported as a warning.
+    metric : design.face_metric.FaceMetric, optional
+        Measure σ against the named face's rest lengths instead of Ω's: where that face
+        carries strings they shorten it, which is not a contraction the membrane must make.
 
     Returns
     -------
@@ -131,7 +142,8 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
     xyz, uv, faces, kappa = (np.asarray(a) for a in (xyz, uv, faces, kappa))
     kappa_max = PAPER_KAPPA_MAX if kappa_max is None else float(kappa_max)
     lo, hi = sigma_band
-    edges, sig = edge_sigma(xyz, uv, faces)
+    flat = metric is None or metric.flat
+    edges, sig = edge_sigma(xyz, uv, faces, None if flat else metric.rest)
     mid_mm = 500.0 * (uv[edges[:, 0]] + uv[edges[:, 1]])
     area = _vertex_areas(uv, faces)
     absk = np.abs(kappa)
@@ -153,7 +165,8 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
         kappa1={"avg": float(area @ absk[:, 0] / area.sum()), "max": float(absk[:, 0].max())},
         kappa2={"avg": float(area @ absk[:, 1] / area.sum()), "max": float(absk[:, 1].max())},
         constructible=not reasons, reasons=reasons, sigma_band=(float(lo), float(hi)),
-        kappa_max=kappa_max, off_target=off, warnings=warnings)
+        kappa_max=kappa_max, off_target=off, warnings=warnings,
+        metric={"face": "flat", "min_ratio": 1.0} if flat else metric.summary())
 
 
 def _off_target(dist, uv, edges, area):

@@ -60,7 +60,8 @@ def report_dict(report) -> dict:
             "kappa_max_per_m": round(float(report.kappa_max), 4),
             "off_target": {"share": round(float(report.off_target["share"]), 4),
                            "max_mm": round(float(report.off_target["max"]) / MM, 2)},
-            "warnings": [str(w) for w in report.warnings]}
+            "warnings": [str(w) for w in report.warnings],
+            "metric": {"face": str(report.metric["face"]), "min_ratio": round(float(report.metric["min_ratio"]), 5)}}
 
 
 def _write_samples(path: Path, calibration: CalibrationSource) -> None:
@@ -246,6 +247,8 @@ def _params(doc: dict, path: Path) -> DesignParams:
         kw["kappa_min"] = _number(p["kappa_min_per_m"], "parameters.kappa_min_per_m", path)
     if "n_kappa_points" in p:
         kw["n_kappa_points"] = int(_number(p["n_kappa_points"], "parameters.n_kappa_points", path))
+    # a folder from before the face metric was relaxed in Ω's metric
+    kw["face_metric"] = bool(p.get("face_metric", False))
     return DesignParams(**kw)
 
 
@@ -261,7 +264,9 @@ def _report(doc: dict, path: Path) -> ConstructibilityReport | None:
             **({"kappa_max": float(r["kappa_max_per_m"])} if "kappa_max_per_m" in r else {}),
             **({"off_target": {"share": float(r["off_target"]["share"]), "max": r["off_target"]["max_mm"] * MM}}
                if "off_target" in r else {}),
-            warnings=list(r.get("warnings", [])))
+            warnings=list(r.get("warnings", [])),
+            **({"metric": {"face": str(r["metric"]["face"]), "min_ratio": float(r["metric"]["min_ratio"])}}
+               if "metric" in r else {}))
     except (KeyError, TypeError, ValueError) as err:
         raise InputError(f"report lacks field {err}", path=path) from None
 

@@ -76,6 +76,11 @@ class DesignParams:
         Pitch of the grid mesh on the mattress's faces (m, paper §2.1: 0.02): each
         dash's ends are snapped to its nodes and L recomputed per dash
         (:mod:`design.tie_grid`); 0 leaves the ends free.
+    face_metric : bool
+        Ŝ in the metric of the face it stands for (:mod:`design.face_metric`): on a
+        design with curvature of both signs the named face carries the minority
+        family's strings and shortens along them; one-signed designs are unchanged.
+        False: Ω's metric everywhere (the paper's A1).
     """
 
     L: float | None = None
@@ -91,6 +96,7 @@ class DesignParams:
     weight_min: float = 0.0
     n_kappa_points: int = 10
     tie_grid: float = 0.02
+    face_metric: bool = True
 
     def weights(self) -> dict:
         """The U_A weights in use: given ones, else the surface side's defaults."""
@@ -110,7 +116,7 @@ class DesignParams:
                 "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), **self.weights(),
                 "kappa_min_per_m": self.kappa_min,
                 "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points),
-                "tie_grid_mm": mm(self.tie_grid)}
+                "tie_grid_mm": mm(self.tie_grid), "face_metric": bool(self.face_metric)}
 
 
 @dataclass(frozen=True)
@@ -203,7 +209,7 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
         raise InputError(f"the tie grid pitch must be >= 0 mm (0: free ends), got {params.tie_grid * M_TO_MM!r}")
     reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))
     approx = approximate_surface(target, mattress, spacing=params.spacing, **params.weights(), kappa_max=reach,
-                                 progress=progress)
+                                 progress=progress, face_metric=params.face_metric, kappa_min=params.kappa_min)
     timings = dict(approx.timings)
     t = time.perf_counter()
     mfield = mattress_field(approx)

@@ -64,7 +64,7 @@ from design.anderson import AndersonAcceleration
 from design.closest_point import MeshProjector
 from design.placement import apply_placement, candidate_placements, placement_matrix
 
-__all__ = ["RelaxResult", "relax_to_target", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
+__all__ = ["RelaxResult", "relax_to_target", "relax_from", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
 
 log = logging.getLogger(__name__)
 
@@ -318,6 +318,48 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
                        energy=energy, placement=mat,
                        distance={"mean": float(closest.distance.mean()), "max": float(closest.distance.max())},
                        history=np.asarray(history), off_target=off_target)
+
+
+def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: float = 1.0, k_a2: float = 0.2,
+               k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7, max_iter: int = 1000,
+               anderson: int = 5):
+    """Minimise U_A from ``x0`` on the fine mesh only, optionally with other A1 rest lengths.
+
+    The building block of a relaxation in another metric (design.face_metric):
+    no placement, no coarse start.
+
+    Parameters
+    ----------
+    x0 : ndarray of shape (n, 3)
+        Start positions (m), e.g. a relaxed Ŝ.
+    uv, faces : ndarray of shape (n, 2), (m, 3)
+        Ω's triangulation (m).
+    projector : design.closest_point.MeshProjector
+        The target S.
+    rest : ndarray of shape (e,), optional
+        A1 rest length (m) of each edge of ``mesh_edges(faces)``; default its length on Ω.
+    k_a1, k_a2, k_a3, tol, stall, max_iter, anderson
+        As in :func:`relax_to_target`.
+
+    Returns
+    -------
+    x : ndarray of shape (n, 3)
+    n_iter : int
+    converged : bool
+    residual : float
+        Largest unbalanced force in units of k_A1 × h.
+    energy : dict
+        ``U_A1``, ``U_A2``, ``U_A3``, ``U_A`` at ``x`` (with these rest lengths).
+    """
+    prob = _Problem(np.asarray(uv, float), np.asarray(faces, np.int64), projector, k_a1, k_a2, k_a3)
+    if rest is not None:
+        rest = np.asarray(rest, float)
+        if rest.shape != prob.rest.shape or not np.all(rest > 0):
+            raise ValueError(f"rest lengths: expected {prob.rest.shape[0]} positive values, got shape {rest.shape}")
+        prob.rest = rest
+    x, it, status, residual, _ = _iterate(prob, np.array(x0, float), tol=tol, stall=stall, max_iter=max_iter,
+                                          window=anderson, bar=None)
+    return x, it, status != "max_iter", residual, prob.energy(x, prob.project(x))
 
 
 def _coarse_levels(h, width, height):

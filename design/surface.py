@@ -15,9 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from airmat.errors import ConvergenceError
 from design.closest_point import MeshProjector
 from design.constructibility import ConstructibilityReport, constructibility
 from design.curvature import PrincipalCurvature, principal_curvature
+from design.face_metric import relax_in_face_metric
 from design.field import MattressField
 from design.mattress import Mattress, triangulate_mattress
 from design.relax import RelaxResult, relax_to_target
@@ -73,7 +75,8 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
                         max_iter: int = 1000, stall: float = 1e-7, sigma_band=(0.9, 1.1),
                         kappa_max: float | None = None,
                         curvature_radius: float = 2.5, progress: bool = True,
-                        strict: bool = False) -> ApproxSurface:
+                        strict: bool = False, face_metric: bool = True,
+                        kappa_min: float = 0.25) -> ApproxSurface:
     """Find Ŝ for ``target`` on ``mattress`` and its principal curvatures (paper §3.2).
 
     Parameters
@@ -101,6 +104,14 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
         Progress bar on the relaxation (only on a terminal).
     strict : bool, default False
         Raise ConvergenceError when the relaxation does not converge.
+    face_metric : bool, default True
+        Relax Ŝ again in the metric of the face it stands for
+        (:func:`design.face_metric.relax_in_face_metric`, with the mattress's thickness):
+        where the curvature has both signs (a saddle), that face carries the minority
+        family's strings and shortens along them. A design whose curvature has one
+        sign is unchanged. False: Ω's metric everywhere (the paper's A1).
+    kappa_min : float, default 0.25
+        |κ| (1/m) below which a family needs no string (and shortens no face).
 
     Returns
     -------
@@ -124,13 +135,20 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
     relax = relax_to_target(uv, faces, target, placement=placement, k_a1=k_a1, k_a2=k_a2, k_a3=k_a3,
                             tol=tol, stall=stall, max_iter=max_iter, progress=progress, strict=strict,
                             projector=projector)
+    metric = None
+    if face_metric:
+        relax, metric = relax_in_face_metric(relax, uv, faces, projector, thickness=mattress.thickness,
+                                             kappa_min=kappa_min, curvature_radius=curvature_radius, k_a1=k_a1,
+                                             k_a2=k_a2, k_a3=k_a3, tol=tol, stall=stall, max_iter=max_iter)
+        if strict and not relax.converged:
+            raise ConvergenceError(f"U_A relaxation {relax.message}", n_iter=relax.n_iter, residual=relax.residual)
     timings["relax"] = time.perf_counter() - t
     t = time.perf_counter()
     curv = principal_curvature(relax.xyz, faces, radius=curvature_radius)
     timings["curvature"] = time.perf_counter() - t
     t = time.perf_counter()
     report = constructibility(relax.xyz, uv, faces, curv.kappa, sigma_band=sigma_band, kappa_max=kappa_max,
-                              off_target=relax.off_target)
+                              off_target=relax.off_target, metric=metric)
     timings["report"] = time.perf_counter() - t
     for warning in report.warnings:
         log.warning("Ŝ of %s: %s", target.name, warning)

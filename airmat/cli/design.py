@@ -46,6 +46,9 @@ def add_parser(sub, parents):
     p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (default: the relaxation's)")
     p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (default: the relaxation's)")
     p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
+    p.add_argument("--flat-metric", action="store_true",
+                   help="relax Ŝ in the flat mattress's metric everywhere (the paper's A1), not in the metric of "
+                        "the face Ŝ stands for (which its own strings shorten on a saddle)")
     p.add_argument("--refine", action="store_true",
                    help="refine the string lengths through the simulated inflation (adjoint Gauss-Newton), "
                         "so that the inflated named face lands on the approximated surface")
@@ -114,7 +117,8 @@ def _params(args):
                         mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.spacing_mm * mm,
                         step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
-                        weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm)
+                        weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm,
+                        face_metric=not args.flat_metric)
 
 
 def summary_text(doc: dict, out) -> str:

@@ -79,10 +79,19 @@ def test_parameters_reach_the_files(cylinder_obj, tmp_path):
     doc = json.loads((out / "design.json").read_text())
     p = doc["parameters"]
     assert (p["L_mm"], p["mu1_mm"], p["mu2_mm"], p["margin_mm"]) == (250.0, 300.0, 150.0, 40.0)
+    assert p["face_metric"] is True and doc["report"]["metric"] == {"face": "flat", "min_ratio": 1.0}
     for d in doc["dashes"]:
         assert d["L_mm"] == pytest.approx(250.0, abs=0.01)
         poly = np.array(d["polyline_mm"])
         assert poly.min() >= 40.0 - 0.01 and np.all(poly <= [830 - 40 + 0.01, 740 - 40 + 0.01])
+
+
+def test_flat_metric_reaches_the_file(cylinder_obj, tmp_path):
+    out = tmp_path / "out"
+    assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--flat-metric", "--out", str(out),
+                 "-q"]) == 0
+    doc = json.loads((out / "design.json").read_text())
+    assert doc["parameters"]["face_metric"] is False and doc["report"]["metric"]["face"] == "flat"
 
 
 def test_ends_are_tied_to_the_grid_in_every_file(cylinder_obj, tmp_path, capsys):
@@ -171,5 +180,6 @@ def test_help_lists_the_options(capsys):
         main(["design", "--help"])
     assert exc.value.code == 0
     text = capsys.readouterr().out
-    for option in ("--preset", "--mattress", "--calibration", "--mu1-mm", "--mu2-mm", "--L-mm", "--out"):
+    for option in ("--preset", "--mattress", "--calibration", "--mu1-mm", "--mu2-mm", "--L-mm", "--out",
+                   "--flat-metric"):
         assert option in text

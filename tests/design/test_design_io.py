@@ -63,10 +63,28 @@ def test_round_trip_within_the_files_precision(vault):
     for key in ("L", "mu1", "mu2", "margin", "spacing"):
         assert getattr(back.params, key) == pytest.approx(getattr(result.params, key), abs=5e-7)
     assert back.params.weights() == pytest.approx(result.params.weights())
+    assert back.params.face_metric is result.params.face_metric is True
+    assert back.approx.report.metric == result.approx.report.metric == {"face": "flat", "min_ratio": 1.0}
     # the simulator's strings: the same to the files' precision
     a, b = design_strings(back, "lo95"), design_strings(result, "lo95")
     np.testing.assert_allclose(a.rest, b.rest, atol=5e-6)
     np.testing.assert_array_equal(a.top, b.top)
+
+
+def test_a_folder_from_before_the_face_metric_reads_as_flat_metric(vault, tmp_path):
+    """design.json without ``parameters.face_metric`` / ``report.metric``: Ŝ was relaxed in Ω's metric."""
+    import json
+    import shutil
+
+    _, folder = vault
+    old = tmp_path / "old"
+    shutil.copytree(folder, old)
+    doc = json.loads((old / "design.json").read_text())
+    del doc["parameters"]["face_metric"], doc["report"]["metric"]
+    (old / "design.json").write_text(json.dumps(doc))
+    back = read_design(old)
+    assert back.params.face_metric is False
+    assert back.approx.report.metric == {"face": "flat", "min_ratio": 1.0}
 
 
 @pytest.mark.slow

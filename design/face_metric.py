@@ -1,0 +1,232 @@
+"""Ŝ in the metric of the face it stands for: the named face shortens where it carries strings.
+
+The check compares Ŝ with the face that keeps its length: the face opposite
+the strings (:func:`check.compare.length_keeping_face`, the top face when
+the bottom strings, κ > 0, carry the larger share of the bending). On a
+design whose curvature has one sign (a vault, a cylinder) that face carries
+no string and keeps Ω's lengths, as the paper's A1 assumes. On a saddle the
+minority family's strings sit on the named face itself: along their
+direction that face is the string face and shortens, by the ratio of its
+radius to the free face's, 1 / (1 + d |κ|) (d the mattress thickness, κ the
+named face's normal curvature; measured on the saddle: 0.92–0.94 of flat
+along u where Ŝ kept 0.97–1.02, ``bench/bench_face_strain.py``). No string
+length can make a face longer than its metric, so such a Ŝ sat 2.6 % of the
+diagonal from what the mattress makes.
+
+:func:`face_metric` gives each edge of Ω the rest length of the named face:
+its flat length times 1 / (1 + d κₙ⁻), κₙ⁻ the normal curvature along the
+edge of the principal curvatures of the minority sign where they need a
+string (|κ| ≥ ``kappa_min``; elsewhere no string shortens the face). Which face
+is named follows the check's rule, applied to the curvature field instead of
+the strings (:func:`named_face`).
+:func:`relax_in_face_metric` relaxes Ŝ again in that metric, a few rounds,
+each from the last Ŝ and with the metric of its curvature. A design whose
+curvature has one sign is left exactly as it was. SI units (m, 1/m).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from airmat.geometry.topology import mesh_edges
+
+__all__ = ["FaceMetric", "face_metric", "named_face", "relax_in_face_metric", "ROUNDS"]
+
+log = logging.getLogger(__name__)
+
+#: relaxations in the face metric, each with the metric of the last Ŝ's curvature
+ROUNDS = 2
+
+
+@dataclass(frozen=True)
+class FaceMetric:
+    """The named face's rest length per edge of Ω.
+
+    Attributes
+    ----------
+    face : str
+        ``"top"`` or ``"bottom"``: the face Ŝ stands for.
+    rest : ndarray of shape (e,)
+        Rest length (m) of each edge of ``mesh_edges(faces)`` on that face.
+    ratio : ndarray of shape (e,)
+        ``rest`` over the edge's length on Ω, in (0, 1]: 1 where the face carries no string.
+    """
+
+    face: str
+    rest: np.ndarray
+    ratio: np.ndarray
+
+    @property
+    def flat(self) -> bool:
+        """True when the face keeps Ω's lengths everywhere (a one-signed design)."""
+        return bool(np.all(self.ratio == 1.0))
+
+    def summary(self) -> dict:
+        """``{"face", "min_ratio"}``: for the constructibility report."""
+        return {"face": self.face, "min_ratio": float(self.ratio.min()) if self.ratio.size else 1.0}
+
+
+def _vertex_areas(uv, faces):
+    d1, d2 = uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]
+    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    return np.bincount(faces.ravel(), weights=np.repeat(area / 3, 3), minlength=len(uv))
+
+
+def named_face(kappa, uv, faces, *, kappa_min: float = 0.25) -> str:
+    """The face Ŝ stands for: opposite the sign of curvature that needs more string.
+
+    Parameters
+    ----------
+    kappa : ndarray of shape (n, 2)
+        Signed principal curvatures (1/m), positive bending away from the top face.
+    uv, faces : ndarray of shape (n, 2), (m, 3)
+        Ω's triangulation (m): the area weights.
+    kappa_min : float
+        |κ| (1/m) below which no string is needed.
+
+    Returns
+    -------
+    str
+        ``"top"`` when the area integral of the positive curvatures that need a string
+        (the bottom strings') is at least the negative ones', else ``"bottom"``: the rule
+        of :func:`check.compare.length_keeping_face`, on the field instead of the strings.
+
+    Examples
+    --------
+    >>> uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> named_face(np.array([[2.0, -1.0]] * 3), uv, np.array([[0, 1, 2]]))
+    'top'
+    >>> named_face(np.array([[-2.0, 1.0]] * 3), uv, np.array([[0, 1, 2]]))
+    'bottom'
+    """
+    kappa = np.asarray(kappa, float)
+    need = np.where(np.abs(kappa) >= kappa_min, kappa, 0.0)
+    area = _vertex_areas(np.asarray(uv, float), np.asarray(faces))
+    pos, neg = area @ np.maximum(need, 0).sum(axis=1), area @ np.maximum(-need, 0).sum(axis=1)
+    return "top" if pos >= neg else "bottom"
+
+
+def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_min: float = 0.25,
+                face: str | None = None) -> FaceMetric:
+    """Rest lengths of Ω's edges on the named face of a mattress bent to Ŝ.
+
+    Parameters
+    ----------
+    xyz : ndarray of shape (n, 3)
+        Ŝ (m).
+    uv : ndarray of shape (n, 2)
+        Ω (m).
+    faces : ndarray of shape (m, 3)
+    kappa : ndarray of shape (n, 2)
+        Ŝ's signed principal curvatures (1/m), positive bending away from the top face.
+    directions : ndarray of shape (n, 2, 3)
+        Their unit directions in space.
+    thickness : float
+        Mattress thickness d (m).
+    kappa_min : float
+        |κ| (1/m) below which a family needs no string (and shortens nothing).
+    face : {"top", "bottom"}, optional
+        The named face; default :func:`named_face`.
+
+    Returns
+    -------
+    FaceMetric
+
+    Examples
+    --------
+    A saddle patch bent +3 1/m along x and -1 1/m along y: the top face (opposite
+    the +3 strings) carries the -1 strings along y, so y edges shorten by 1 / (1 + 0.07).
+
+    >>> uv = np.array([[0.0, 0.0], [0.02, 0.0], [0.0, 0.02]])
+    >>> xyz = np.column_stack([uv, np.zeros(3)])
+    >>> k = np.array([[3.0, -1.0]] * 3)
+    >>> dirs = np.array([[[1.0, 0, 0], [0, 1.0, 0]]] * 3)
+    >>> m = face_metric(xyz, uv, np.array([[0, 1, 2]]), k, dirs, thickness=0.07)
+    >>> m.face, np.round(m.ratio, 4).tolist()
+    ('top', [1.0, 0.9346, 0.9662])
+    """
+    xyz, uv, kappa, directions = (np.asarray(a, float) for a in (xyz, uv, kappa, directions))
+    faces = np.asarray(faces)
+    face = named_face(kappa, uv, faces, kappa_min=kappa_min) if face is None else face
+    if face not in ("top", "bottom"):
+        raise ValueError(f"face must be 'top' or 'bottom', got {face!r}")
+    edges = mesh_edges(faces)
+    flat = np.linalg.norm(uv[edges[:, 1]] - uv[edges[:, 0]], axis=1)
+    t = xyz[edges[:, 1]] - xyz[edges[:, 0]]
+    t /= np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
+    # the named face's own strings bend it with the sign the other face's strings do not
+    own = np.maximum(-kappa if face == "top" else kappa, 0.0) * (np.abs(kappa) >= kappa_min)   # (n, 2)
+    kn = np.zeros(len(edges))
+    for end in (0, 1):
+        cos2 = np.einsum("kd,kjd->kj", t, directions[edges[:, end]]) ** 2                     # (e, 2)
+        kn += 0.5 * np.einsum("kj,kj->k", own[edges[:, end]], cos2)
+    ratio = 1.0 / (1.0 + thickness * kn)
+    return FaceMetric(face=face, rest=flat * ratio, ratio=ratio)
+
+
+def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa_min: float = 0.25,
+                         rounds: int = ROUNDS, curvature_radius: float = 2.5, k_a1: float = 1.0,
+                         k_a2: float = 0.2, k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7,
+                         max_iter: int = 1000):
+    """Relax Ŝ again in its named face's metric (a few rounds, each from the last).
+
+    Parameters
+    ----------
+    relax : design.relax.RelaxResult
+        Ŝ relaxed in Ω's metric.
+    uv, faces : ndarray
+        Ω's triangulation (m).
+    projector : design.closest_point.MeshProjector
+        The target S.
+    thickness : float
+        Mattress thickness d (m).
+    kappa_min : float
+        |κ| (1/m) below which a family needs no string.
+    rounds : int
+        Relaxations in the metric, each with the metric of the last Ŝ's curvature.
+    curvature_radius : float
+        Neighbourhood of the curvature fit (mean edge lengths), as for Ŝ's curvature.
+    k_a1, k_a2, k_a3, tol, stall, max_iter
+        As in :func:`design.relax.relax_to_target`.
+
+    Returns
+    -------
+    relax : design.relax.RelaxResult
+        The input unchanged when the named face keeps Ω's lengths everywhere; else Ŝ
+        in the face metric (``n_iter`` adds the rounds' iterations, ``converged`` is
+        the last round's, the message says so).
+    metric : FaceMetric
+        The metric of the returned Ŝ's start (the last round's).
+    """
+    from design.curvature import principal_curvature
+    from design.relax import relax_from
+
+    x = relax.xyz
+    curv = principal_curvature(x, faces, radius=curvature_radius)
+    metric = face_metric(x, uv, faces, curv.kappa, curv.directions, thickness=thickness, kappa_min=kappa_min)
+    if metric.flat:
+        return relax, metric
+    face = metric.face
+    n_iter, converged, residual = relax.n_iter, relax.converged, relax.residual
+    for r in range(rounds):
+        if r:
+            curv = principal_curvature(x, faces, radius=curvature_radius)
+            metric = face_metric(x, uv, faces, curv.kappa, curv.directions, thickness=thickness,
+                                 kappa_min=kappa_min, face=face)
+        x, it, converged, residual, energy = relax_from(x, uv, faces, projector, rest=metric.rest, k_a1=k_a1,
+                                                k_a2=k_a2, k_a3=k_a3, tol=tol, stall=stall, max_iter=max_iter)
+        n_iter += it
+    log.info("Ŝ relaxed in the %s face's metric (%d rounds; its strings shorten it to %.3f of Ω at least)",
+             face, rounds, metric.ratio.min())
+    closest = projector.closest(x)
+    message = (f"{relax.message}; then {rounds} rounds in the {face} face's metric: "
+               f"{'converged' if converged else 'not converged'} (largest force {residual:.2g} k_A1·h)")
+    return dataclasses.replace(relax, xyz=x, converged=bool(relax.converged and converged), n_iter=int(n_iter),
+                               residual=float(residual), message=message, energy=energy,
+                               distance={"mean": float(closest.distance.mean()),
+                                         "max": float(closest.distance.max())},
+                               off_target=np.where(closest.on_rim, closest.distance, 0.0)), metric
