@@ -14,7 +14,9 @@ The strings then come from that Ŝ's curvature and the check (and, with
 ``--refine``, the refinement) compares the mid-surface. Each row gives the
 named-face deviation of the default next to the mid-surface deviation of the
 experiment, % of the diagonal, at 20 mm. The relaxation is wrapped by
-replacing ``design.surface.relax_to_target`` for the experiment's designs.
+replacing ``design.surface.relax_to_target`` for the experiment's designs,
+which are made with ``face_metric=False`` (the default named-face metric of
+design.face_metric would otherwise relax them once more).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import design.surface as surface_module  # noqa: E402
 from check.inflation_check import check  # noqa: E402
 from check.refinement import refine  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
+from design.pipeline import DesignParams  # noqa: E402
 from design.closest_point import MeshProjector  # noqa: E402
 from design.curvature import principal_curvature  # noqa: E402
 from design.relax import _iterate, _Problem  # noqa: E402
@@ -81,7 +84,7 @@ def main(argv=None) -> int:
         base = designed_preset(name)
         surface_module.relax_to_target = _mid_metric_relax(base.mattress.thickness)
         try:
-            mid = designed_preset(name)
+            mid = designed_preset(name, DesignParams(face_metric=False))
         finally:
             surface_module.relax_to_target = _default_relax
         cells = [check(base, envelope=False).runs["median"].deviation.rms_pct_diag,

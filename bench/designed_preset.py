@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 
-def designed_preset(preset: str):
-    """Design ``preset`` (paper calibration values, seed 0); return its DesignResult (SI)."""
-    from design.pipeline import design
+def designed_preset(preset: str, params=None):
+    """Design ``preset`` (paper calibration values, seed 0; ``params`` a DesignParams, default the
+    defaults); return its DesignResult (SI)."""
+    from design.pipeline import DesignParams, design
     from design.presets import preset as load
 
     target, mattress = load(preset)
-    return design(target, mattress, progress=False)
+    return design(target, mattress, params=DesignParams() if params is None else params, progress=False)
