@@ -111,7 +111,7 @@ def named_face(kappa, uv, faces, *, kappa_min: float = 0.25) -> str:
 
 
 def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_min: float = 0.25,
-                face: str | None = None) -> FaceMetric:
+                kappa_max: float = np.inf, margin: float = 0.0, face: str | None = None) -> FaceMetric:
     """Rest lengths of Ω's edges on the named face of a mattress bent to Ŝ.
 
     Parameters
@@ -129,6 +129,11 @@ def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_mi
         Mattress thickness d (m).
     kappa_min : float
         |κ| (1/m) below which a family needs no string (and shortens nothing).
+    kappa_max : float
+        The largest |κ| (1/m) a string reaches: larger curvatures (Ŝ beyond reach, or the
+        noise of a curvature fit at a rim) shorten the face only as much as that.
+    margin : float
+        Dashes stay this far inside Ω's edge (m): no string shortens the face closer to it.
     face : {"top", "bottom"}, optional
         The named face; default :func:`named_face`.
 
@@ -159,7 +164,9 @@ def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_mi
     t = xyz[edges[:, 1]] - xyz[edges[:, 0]]
     t /= np.maximum(np.linalg.norm(t, axis=1), 1e-300)[:, None]
     # the named face's own strings bend it with the sign the other face's strings do not
-    own = np.maximum(-kappa if face == "top" else kappa, 0.0) * (np.abs(kappa) >= kappa_min)   # (n, 2)
+    inside = np.min(np.concatenate([uv - uv.min(axis=0), uv.max(axis=0) - uv], axis=1), axis=1) >= margin
+    own = (np.clip(-kappa if face == "top" else kappa, 0.0, kappa_max)
+           * ((np.abs(kappa) >= kappa_min) & inside[:, None]))                                     # (n, 2)
     kn = np.zeros(len(edges))
     for end in (0, 1):
         cos2 = np.einsum("kd,kjd->kj", t, directions[edges[:, end]]) ** 2                     # (e, 2)
@@ -169,7 +176,8 @@ def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_mi
 
 
 def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa_min: float = 0.25,
-                         rounds: int = ROUNDS, curvature_radius: float = 2.5, k_a1: float = 1.0,
+                         kappa_max: float = np.inf, margin: float = 0.0, rounds: int = ROUNDS,
+                         curvature_radius: float = 2.5, k_a1: float = 1.0,
                          k_a2: float = 0.2, k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7,
                          max_iter: int = 1000):
     """Relax Ŝ again in its named face's metric (a few rounds, each from the last).
@@ -186,6 +194,10 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
         Mattress thickness d (m).
     kappa_min : float
         |κ| (1/m) below which a family needs no string.
+    kappa_max : float
+        The largest |κ| (1/m) a string reaches (:func:`face_metric`).
+    margin : float
+        Dashes stay this far inside Ω's edge (m) (:func:`face_metric`).
     rounds : int
         Relaxations in the metric, each with the metric of the last Ŝ's curvature.
     curvature_radius : float
@@ -207,7 +219,8 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
 
     x = relax.xyz
     curv = principal_curvature(x, faces, radius=curvature_radius)
-    metric = face_metric(x, uv, faces, curv.kappa, curv.directions, thickness=thickness, kappa_min=kappa_min)
+    metric = face_metric(x, uv, faces, curv.kappa, curv.directions, thickness=thickness, kappa_min=kappa_min,
+                         kappa_max=kappa_max, margin=margin)
     if metric.flat:
         return relax, metric
     face = metric.face
@@ -216,7 +229,7 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
         if r:
             curv = principal_curvature(x, faces, radius=curvature_radius)
             metric = face_metric(x, uv, faces, curv.kappa, curv.directions, thickness=thickness,
-                                 kappa_min=kappa_min, face=face)
+                                 kappa_min=kappa_min, kappa_max=kappa_max, margin=margin, face=face)
         x, it, converged, residual, energy = relax_from(x, uv, faces, projector, rest=metric.rest, k_a1=k_a1,
                                                 k_a2=k_a2, k_a3=k_a3, tol=tol, stall=stall, max_iter=max_iter)
         n_iter += it

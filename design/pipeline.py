@@ -209,7 +209,8 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
         raise InputError(f"the tie grid pitch must be >= 0 mm (0: free ends), got {params.tie_grid * M_TO_MM!r}")
     reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))
     approx = approximate_surface(target, mattress, spacing=params.spacing, **params.weights(), kappa_max=reach,
-                                 progress=progress, face_metric=params.face_metric, kappa_min=params.kappa_min)
+                                 progress=progress, face_metric=params.face_metric, kappa_min=params.kappa_min,
+                                 string_margin=params.margin)
     timings = dict(approx.timings)
     t = time.perf_counter()
     mfield = mattress_field(approx)

@@ -17,7 +17,7 @@ import numpy as np
 
 from airmat.errors import ConvergenceError
 from design.closest_point import MeshProjector
-from design.constructibility import ConstructibilityReport, constructibility
+from design.constructibility import PAPER_KAPPA_MAX, ConstructibilityReport, constructibility
 from design.curvature import PrincipalCurvature, principal_curvature
 from design.face_metric import relax_in_face_metric
 from design.field import MattressField
@@ -76,7 +76,7 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
                         kappa_max: float | None = None,
                         curvature_radius: float = 2.5, progress: bool = True,
                         strict: bool = False, face_metric: bool = True,
-                        kappa_min: float = 0.25) -> ApproxSurface:
+                        kappa_min: float = 0.25, string_margin: float = 0.03) -> ApproxSurface:
     """Find Ŝ for ``target`` on ``mattress`` and its principal curvatures (paper §3.2).
 
     Parameters
@@ -112,6 +112,8 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
         sign is unchanged. False: Ω's metric everywhere (the paper's A1).
     kappa_min : float, default 0.25
         |κ| (1/m) below which a family needs no string (and shortens no face).
+    string_margin : float, default 0.03
+        Dashes stay this far inside the mattress edge (m): no string shortens a face there.
 
     Returns
     -------
@@ -138,7 +140,9 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
     metric = None
     if face_metric:
         relax, metric = relax_in_face_metric(relax, uv, faces, projector, thickness=mattress.thickness,
-                                             kappa_min=kappa_min, curvature_radius=curvature_radius, k_a1=k_a1,
+                                             kappa_min=kappa_min, margin=string_margin,
+                                             curvature_radius=curvature_radius,
+                                             kappa_max=PAPER_KAPPA_MAX if kappa_max is None else kappa_max, k_a1=k_a1,
                                              k_a2=k_a2, k_a3=k_a3, tol=tol, stall=stall, max_iter=max_iter)
         if strict and not relax.converged:
             raise ConvergenceError(f"U_A relaxation {relax.message}", n_iter=relax.n_iter, residual=relax.residual)

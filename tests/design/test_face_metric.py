@@ -137,3 +137,25 @@ def test_the_saddle_preset_lands_closer_in_the_face_metric():
     rms = {fm: check(design(target, mattress, params=DesignParams(face_metric=fm), progress=False),
                      envelope=False).runs["median"].deviation.rms for fm in (True, False)}
     assert rms[True] < 0.9 * rms[False]
+
+
+def test_curvature_beyond_reach_shortens_only_as_much_as_a_string_can(grid):
+    uv, faces, edges = grid
+    xyz = np.column_stack([uv, np.zeros(len(uv))])
+    kappa, dirs = _field(len(uv), 120.0, -90.0)        # the noise of a curvature fit at a rim, say
+    m = face_metric(xyz, uv, faces, kappa, dirs, thickness=D, kappa_max=15.66)
+    _, along_v = _edge_kind(uv, edges)
+    np.testing.assert_allclose(m.ratio[along_v], 1 / (1 + D * 15.66), rtol=1e-12)
+
+
+def test_no_string_within_the_margin_shortens_the_face(grid):
+    uv, faces, edges = grid
+    xyz = np.column_stack([uv, np.zeros(len(uv))])
+    kappa, dirs = _field(len(uv), 3.0, -1.4)
+    m = face_metric(xyz, uv, faces, kappa, dirs, thickness=D, margin=0.03)
+    near = np.min(np.concatenate([uv - uv.min(axis=0), uv.max(axis=0) - uv], axis=1), axis=1) < 0.03
+    _, along_v = _edge_kind(uv, edges)
+    both_near, both_in = near[edges].all(axis=1), (~near[edges]).all(axis=1)
+    np.testing.assert_array_equal(m.ratio[both_near], 1.0)
+    np.testing.assert_allclose(m.ratio[along_v & both_in], 1 / (1 + D * 1.4), rtol=1e-12)
+    assert (along_v & both_in).any() and both_near.any()
