@@ -3,7 +3,7 @@
 For a handful of simulated rest lengths l* the specimen of
 :mod:`check.validation` (parallel chained strings on a strip) is inflated and
 its κ₁ measured as the paper defines it: the circle through consecutive
-string ends on the string face (:func:`~check.validation.polygon_curvature`),
+folds on the string face (:func:`~check.validation.polygon_curvature`),
 which is the quantity Equation 3 predicts (2 cos(θ/2) / L*) and the one the
 calibration's scans were fitted with. Each simulated κ₁ is then read back
 through the calibrated Equation 3 (posterior median Δ, d): the real length l
@@ -122,12 +122,14 @@ def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, wo
     """
     from airmat.atomic import atomic_write_text
     from check.length_map import CalibratedLengthMap
+    from check.validation import SpecimenLayout
     from inflation.model import Parameters
 
     params = Parameters() if params is None else params
     mm = {name: round(float(v) * 1e3, 6) for name, v in
           (("L_mm", L), ("delta_mm", delta), ("d_mm", d), ("thickness_mm", thickness), ("resolution_mm", resolution))}
-    digest, key = _key(**mm, params=repr(params), rows=N_ROWS, top=_TOP)
+    digest, key = _key(**mm, params=repr(params), rows=N_ROWS, top=_TOP, layout=repr(SpecimenLayout()),
+                       measure="folds")
     path = cache_dir() / "length_map" / f"{digest}.json"
     table = None
     if cache and path.is_file():

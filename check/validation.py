@@ -1,28 +1,38 @@
 """The paper's cylindrical-specimen experiment, simulated: realized κ₁ against Equation 3.
 
-A strip of mattress carries rows of strings along u on its bottom face, each
-of span L between its ends, chained end to end and staggered by L/2 between
-neighbouring rows (the designer's stagger). For each ratio l/L the strip is
-inflated with string rest length l (Δ = 0: the simulated ends do not slip).
+A strip of mattress carries parallel rows of strings along u on its bottom
+face, each of span L between its ends, chained end to end (§2.2: "parallel
+external strings", the string pattern and L fixed, only l varied). For each
+ratio l/L the strip is inflated with string rest length l (Δ = 0: the
+simulated ends do not slip).
 
 What is measured, as the paper measured it (§2.2, Figure 4): κ₁ is "the
 reciprocal of the radius R of the circumscribed circle of a polygon with an
-internal angle θ and a side length of L*". The polygon's vertices are the
-wrinkles at the string ends, on the **string face**; so ``kappa_polygon`` is
-the circle through three consecutive string ends of a row (the two ends and
-the joint of two chained strings) on the simulated bottom face. Next to it:
-circles fitted to the strip's cross-sections over the middle 2L (the paper
-measured "the curvature of the cross-sectional circles" of its scans; it
-does not say which face was scanned) on the string face and on the free face
-(the face that keeps its length, the one the check compares with Ŝ). The model gives both:
-Equation 3's κ₁ = 2 cos(θ/2) / L* (string face, circumscribed circle) and the
-free face's mean curvature (π − θ) / L (its length per string stays L and
-turns by π − θ).
+internal angle θ and a side length of L*". Equation 1, sin(θ/2) = (l*/2) /
+(L*/2), is the triangle of a string that spans a fold at its middle: the two
+halves of its span (L*/2 each, the wrinkle taking 2h) meet at the angle θ
+and the string is their chord. So the polygon's vertices are the folds
+under the strings' middles, its sides run from fold to fold (L* = L − 2h),
+and the string ends sit at the sides' middles (a circle through them is the
+polygon's inscribed circle, κ₁ / sin(θ/2): 1.5× κ₁ at l/L = 0.4).
+``kappa_polygon`` is the circle through three consecutive folds of a row
+on the simulated bottom face: with the rows aligned (the default layout),
+all rows fold together, as the model's polygon does; a staggered layout
+(``stagger=True``, the designer's pattern) puts one row's folds at the
+next row's string ends and bends more smoothly. Next to it: circles fitted
+to the strip's cross-sections over the middle 2L (the paper measured "the
+curvature of the cross-sectional circles" of its scans; it does not say
+which face was scanned) on the string face and on the free face (the face
+that keeps its length, the one the check compares with Ŝ). The model gives
+both: Equation 3's κ₁ = 2 cos(θ/2) / L* (string face, circumscribed
+circle) and the free face's mean curvature (π − θ) / L (its length per
+string stays L and turns by π − θ).
 
-The strip is 2.5 L + 2 margins long (850 mm at L = 300 mm), so by the model
-it turns 320° at l/L = 0.3 and less above; the measured turn of the free face
-is reported, and a strip that turns ≥ 330° (it would touch itself; the
-simulator has no self-contact) is flagged ``closes``. SI units.
+The strip is 3 L + 2 margins long (1 m at L = 300 mm; three folds per row),
+so by the model it turns 290° at l/L = 0.4 and less above; the measured
+turn of the free face is reported, and a strip that turns ≥ 330° (it would
+touch itself; the simulator has no self-contact) is flagged ``closes``.
+SI units.
 """
 
 from __future__ import annotations
@@ -52,18 +62,22 @@ CLOSES_DEG = 330.0
 
 @dataclass(frozen=True)
 class SpecimenLayout:
-    """The simulated specimen (m): ``n_series`` strings of span L along u per row, rows ``row_spacing`` apart."""
+    """The simulated specimen (m): ``n_series`` strings of span L along u per row, rows ``row_spacing`` apart.
+
+    ``stagger``: neighbouring rows shifted by L/2 (the designer's pattern) instead of aligned.
+    """
 
     L: float = PAPER_L
-    n_series: int = 2
+    n_series: int = 3
     n_rows: int = 4
     row_spacing: float = 0.100
     margin: float = 0.050
     thickness: float = PAPER_D
+    stagger: bool = False
 
     @property
     def width(self) -> float:
-        return (self.n_series + 0.5) * self.L + 2 * self.margin
+        return (self.n_series + (0.5 if self.stagger else 0.0)) * self.L + 2 * self.margin
 
     @property
     def height(self) -> float:
@@ -74,7 +88,7 @@ def specimen_strings(layout: SpecimenLayout, l: float) -> StringSet:
     """Strings of rest length ``l`` on the bottom face (the strip bends away from the top: κ > 0)."""
     a, b = [], []
     for row in range(layout.n_rows):  # a handful of rows
-        u0 = layout.margin + (0.5 * layout.L if row % 2 else 0.0)
+        u0 = layout.margin + (0.5 * layout.L if layout.stagger and row % 2 else 0.0)
         v = layout.margin + row * layout.row_spacing
         starts = u0 + layout.L * np.arange(layout.n_series)
         a.append(np.column_stack([starts, np.full(layout.n_series, v)]))
@@ -85,18 +99,22 @@ def specimen_strings(layout: SpecimenLayout, l: float) -> StringSet:
 
 
 def polygon_curvature(inf, layout: SpecimenLayout) -> np.ndarray:
-    """κ₁ as the paper defines it: circles through consecutive string ends on the string face (1/m).
+    """κ₁ as the paper defines it: circles through consecutive folds on the string face (1/m).
+
+    The folds are under the strings' middles (see the module docstring); each
+    circle passes through three consecutive ones of a row.
 
     Returns
     -------
-    ndarray of shape (n_rows * (n_series - 1),)
-        One signed curvature per joint of two chained strings (positive: bends away from the top).
+    ndarray of shape (n_rows * (n_series - 2),)
+        One signed curvature per inner fold (positive: bends away from the top).
     """
+    if layout.n_series < 3:
+        raise ValueError(f"the polygon's circle needs three folds per row: n_series >= 3, got {layout.n_series}")
     s = specimen_strings(layout, layout.L)
     n = layout.n_series
-    a, b = s.a.reshape(layout.n_rows, n, 2), s.b.reshape(layout.n_rows, n, 2)
-    verts = np.concatenate([a, b[:, -1:]], axis=1)                  # (rows, n + 1, 2): the polygon's vertices
-    p, m, q = verts[:, :-2].reshape(-1, 2), verts[:, 1:-1].reshape(-1, 2), verts[:, 2:].reshape(-1, 2)
+    folds = (0.5 * (s.a + s.b)).reshape(layout.n_rows, n, 2)        # the polygon's vertices
+    p, m, q = folds[:, :-2].reshape(-1, 2), folds[:, 1:-1].reshape(-1, 2), folds[:, 2:].reshape(-1, 2)
     xyz, up = surface_at(inf, np.concatenate([p, m, q]), "bottom")
     k = len(p)
     return menger_signed(xyz[:k], xyz[k:2 * k], xyz[2 * k:], up[k:2 * k])
@@ -315,7 +333,7 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout(), delt
         ax.plot(x[closes], [p.kappa_strings for p, c in zip(points, closes) if c], "x", color="grey", ms=10,
                 label=f"strip turns ≥ {CLOSES_DEG:g}° (would touch itself)")
     ax.plot(x, [p.kappa_strings for p in points], "s", color="C0",
-            label="simulated κ₁: circle through consecutive string ends (string face)"
+            label="simulated κ₁: circle through consecutive folds (string face)"
                   + (", through the calibrated length map" if calibrated else ""))
     ax.set_xlabel(f"{'real ' if calibrated else ''}string length ratio l / L (L = {L_mm:g} mm)")
     ax.set_ylabel("curvature κ₁ (1/m)")

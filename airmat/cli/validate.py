@@ -53,11 +53,14 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
              "kappa_strings_per_m": round(p.kappa_strings, 4),
              "converged": p.converged, "iterations": p.n_iter} for p in points]
     d = layout.thickness if d is None else d
-    doc = {"experiment": "strip of 2 chained parallel bottom strings per row (850 mm), L = 300 mm, d = 70 mm, "
+    doc = {"experiment": f"strip of {layout.n_series} chained parallel bottom strings per row, rows aligned "
+                         f"({layout.width * 1e3:.0f} mm), L = {layout.L * 1e3:.0f} mm, "
+                         f"d = {layout.thickness * 1e3:.0f} mm, "
                          "Delta = 0 (with a calibration: its L and thickness, each real l simulated at the calibrated "
                          "map's l_sim, against Equation 3 with the posterior median's Delta, d). kappa_polygon: the "
-                         "paper's kappa_1 (Figure 4b), the circle through consecutive string ends on the string "
-                         "(bottom) face; Equation 3 gives it as 2 cos(theta/2) / L*. Circles fitted to the "
+                         "paper's kappa_1 (Figure 4b), the circle through consecutive folds (under the strings' "
+                         "middles: the polygon's vertices) on the string (bottom) face; Equation 3 gives it as "
+                         "2 cos(theta/2) / L*. Circles fitted to the "
                          "cross-sections of the string face and of the free (top) face over the middle 2L; the "
                          "model's free face bends by (pi - theta) / L. closes: the strip turns >= 330 deg (no "
                          "self-contact in the simulation)",
