@@ -2,10 +2,10 @@
 
 For a handful of simulated rest lengths l* the specimen of
 :mod:`check.validation` (parallel chained strings on a strip) is inflated and
-its κ₁ measured as the paper defines it: the circle through consecutive
-folds on the string face (:func:`~check.validation.polygon_curvature`),
-which is the quantity Equation 3 predicts (2 cos(θ/2) / L*) and the one the
-calibration's scans were fitted with. Each simulated κ₁ is then read back
+its κ₁ measured as the calibration measures a specimen: circles fitted to
+the cross-sections of the string face (:func:`~check.validation.specimen_kappa`),
+as a cylinder fit of a scan reads it (the calibrated curve is Equation 3 fitted
+to such fits). Each simulated κ₁ is then read back
 through the calibrated Equation 3 (posterior median Δ, d): the real length l
 that bends the real mattress to that κ₁. The rows (l, l*) are the table of
 :class:`~check.length_map.CalibratedLengthMap`; a last row (L − 2Δ, L) joins
@@ -129,7 +129,7 @@ def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, wo
     mm = {name: round(float(v) * 1e3, 6) for name, v in
           (("L_mm", L), ("delta_mm", delta), ("d_mm", d), ("thickness_mm", thickness), ("resolution_mm", resolution))}
     digest, key = _key(**mm, params=repr(params), rows=N_ROWS, top=_TOP, layout=repr(SpecimenLayout()),
-                       measure="folds")
+                       measure="sections")
     path = cache_dir() / "length_map" / f"{digest}.json"
     table = None
     if cache and path.is_file():

@@ -213,7 +213,14 @@ def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, 
 
 def specimen_kappa(l_sim, *, layout: SpecimenLayout = SpecimenLayout(), resolution: float = 0.04,
                    params: Parameters | None = None, workers: int = 1):
-    """The paper's κ₁ of the simulated specimen at each rest length (what the calibrated length map is built from).
+    """κ₁ of the simulated specimen as a scan's cylinder fit reads it, at each rest length (the calibrated map's).
+
+    The cross-section circles of the string face (:func:`section_curvature`): the
+    calibration's κ₁ comes from cylinders fitted to scans of specimens, and the
+    paper measured "the curvature of the cross-sectional circles". (The circle
+    through the folds, :func:`polygon_curvature`, stops growing below l/L ≈ 0.4,
+    where a three-string strip closes on itself, so it cannot reach a calibrated
+    κ₁ at l/L = 0.3.)
 
     Parameters
     ----------
@@ -228,13 +235,13 @@ def specimen_kappa(l_sim, *, layout: SpecimenLayout = SpecimenLayout(), resoluti
     Returns
     -------
     kappa : ndarray of shape (n,)
-        Mean of :func:`polygon_curvature` (1/m).
+        :func:`section_curvature` of the bottom (string) face (1/m).
     converged : ndarray of shape (n,), bool
     """
     mesh = build_mattress_mesh(layout.width, layout.height, layout.thickness, resolution=resolution)
     infs = inflate_many(mesh, [specimen_strings(layout, float(l)) for l in np.atleast_1d(l_sim)],
                         params=Parameters() if params is None else params, workers=workers, desc="length map")
-    return (np.array([np.mean(polygon_curvature(inf, layout)) for inf in infs]),
+    return (np.array([section_curvature(inf, layout, "bottom")[0] for inf in infs]),
             np.array([inf.converged for inf in infs], bool))
 
 

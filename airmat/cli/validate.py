@@ -144,9 +144,9 @@ def _print_plain(rows):
 def _print_calibrated(rows, delta, d):
     print(f"calibrated κ₁ median: Equation 3 with Δ = {delta * 1e3:.1f} mm, d = {d * 1e3:.1f} mm; "
           "simulated through the calibrated length map")
-    print("l/L   simulated l*/L   κ₁ simulated (1/m)   κ₁ calibrated (1/m)   difference   turn")
+    print("l/L   simulated l*/L   κ₁ simulated, sections (1/m)   κ₁ calibrated (1/m)   difference   turn")
     for r in rows:
-        k, k3 = r["kappa_polygon_per_m"], r["kappa_eq3_per_m"]
+        k, k3 = r["kappa_section_string_face_per_m"], r["kappa_eq3_per_m"]
         diff = f"{100 * (k / k3 - 1):+6.1f} %" if k3 > 0 else f"{k - k3:+.2f} 1/m"
-        print(f"{r['l_over_L']:.2f}  {r['l_sim_over_L']:10.3f}   {k:14.2f}   {k3:18.2f}   {diff:>12}  "
+        print(f"{r['l_over_L']:.2f}  {r['l_sim_over_L']:10.3f}   {k:24.2f}   {k3:18.2f}   {diff:>12}  "
               f"{r['turn_deg']:5.0f}°" + ("  closes (no self-contact)" if r["closes"] else ""))

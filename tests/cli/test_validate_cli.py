@@ -45,7 +45,7 @@ def test_validate_with_a_calibration_reproduces_its_curve(tmp_path, capsys, monk
     printed = capsys.readouterr().out
     assert "calibrated κ₁ median" in printed and "difference" in printed
     doc = json.loads((out / "validate.json").read_text())
-    k = np.array([p["kappa_polygon_per_m"] for p in doc["points"]])
+    k = np.array([p["kappa_section_string_face_per_m"] for p in doc["points"]])
     k_cal = np.array([p["kappa_eq3_per_m"] for p in doc["points"]])
     assert np.all(k_cal > 0) and np.all(np.abs(k / k_cal - 1) <= 0.05), k / k_cal - 1
     assert np.all(np.diff(doc["length_map"]["l_sim_mm"]) > 0) and doc["equation3"]["delta_mm"] > 0
