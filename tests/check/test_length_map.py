@@ -113,7 +113,7 @@ def test_design_strings_send_every_tolerance_end_through_the_same_map():
 def test_simulated_specimen_reproduces_the_calibrated_kappa1(tmp_path, monkeypatch):
     # the real thing at 40 mm: the map built from 8 simulated specimens, then the specimen simulated
     # through it at l/L = 0.4, 0.6, 0.8 bends as Equation 3 with the calibration median says, within 5 %
-    # (measured: +2.4, -0.4, +0.5 %).
+    # (measured: -1.4, -0.9, +0.1 %; κ₁ as the cross-section circles of the string face).
     from check.validation import SpecimenLayout, validate_equation3
     from design.calibration_source import default_calibration
 
