@@ -20,6 +20,9 @@ def add_parser(sub, parents):
                         "with its kappa_1 median")
     p.add_argument("--thickness-mm", type=float, default=None,
                    help="mattress thickness of the specimen (default 70, or the calibration's median d)")
+    p.add_argument("--L-mm", dest="L_mm", type=float, default=None,
+                   help="string span L of the specimen (default 300, the paper's; with --calibration: the "
+                        "calibration's)")
     p.add_argument("--out", default="out/validate", metavar="DIR",
                    help="output folder: validate.json, validate.csv, validate.png (default out/validate)")
     p.add_argument("--l-over-L", dest="ratios", default="0.3,0.4,0.5,0.6,0.7,0.8,0.9",
@@ -94,13 +97,21 @@ def run(args) -> int:
         raise InputError(f"--l-over-L {args.ratios!r}: expected comma-separated numbers") from None
     if not ratios or any(not (0 < r < 1) for r in ratios):
         raise InputError(f"--l-over-L {args.ratios!r}: ratios must lie in (0, 1)")
-    if not (0 < args.resolution_mm <= 75):
-        raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, 75] (L/4 for L = 300 mm)")
+    if args.L_mm is not None:
+        if args.calibration is not None:
+            raise InputError("--L-mm: the calibration fixes L (its manifest's L_mm); give one or the other")
+        if not (50 <= args.L_mm <= 2000):
+            raise InputError(f"--L-mm {args.L_mm:g}: must be in [50, 2000]")
+    L_mm = 300.0 if args.L_mm is None else args.L_mm
+    if not (0 < args.resolution_mm <= 75) or (args.calibration is None and args.resolution_mm > L_mm / 4):
+        raise InputError(f"--resolution-mm {args.resolution_mm:g}: must be in (0, {min(75.0, L_mm / 4):g}] "
+                         f"(L/4 for L = {L_mm:g} mm, at most 75)")
     workers = jobs(args)
     if args.thickness_mm is not None and not (0 < args.thickness_mm <= 1000):
         raise InputError(f"--thickness-mm {args.thickness_mm:g}: must be in (0, 1000]")
     if args.calibration is None:
-        layout = SpecimenLayout() if args.thickness_mm is None else SpecimenLayout(thickness=args.thickness_mm * MM)
+        layout = SpecimenLayout(**({} if args.L_mm is None else {"L": args.L_mm * MM}),
+                                **({} if args.thickness_mm is None else {"thickness": args.thickness_mm * MM}))
         lengths, delta, d = None, 0.0, None
     else:
         import numpy as np

@@ -10,6 +10,9 @@ from airmat.cli import main
     (["--l-over-L", "0.5,1.2"], "(0, 1)"),
     (["--resolution-mm", "100"], "(0, 75]"),
     (["--jobs", "0"], "--jobs must be at least 1"),
+    (["--L-mm", "20"], "[50, 2000]"),
+    (["--L-mm", "150", "--resolution-mm", "40"], "(0, 37.5]"),
+    (["--L-mm", "150", "--calibration", "somewhere"], "the calibration fixes L"),
 ])
 def test_bad_options_exit_2_with_one_line(tmp_path, capsys, args, words):
     out = tmp_path / "validate"
@@ -17,6 +20,18 @@ def test_bad_options_exit_2_with_one_line(tmp_path, capsys, args, words):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
     assert not out.exists()
+
+
+def test_the_specimen_takes_another_L(tmp_path, capsys):
+    import json
+
+    out = tmp_path / "validate"
+    assert main(["validate", "--out", str(out), "--L-mm", "200", "--l-over-L", "0.7", "--resolution-mm", "50",
+                 "-q"]) == 0
+    doc = json.loads((out / "validate.json").read_text())
+    assert doc["L_mm"] == 200 and "L = 200 mm" in doc["experiment"]
+    (p,) = doc["points"]
+    assert p["converged"] and p["kappa_polygon_per_m"] > 0 and p["kappa_eq3_per_m"] > 0
 
 
 def test_missing_calibration_exits_2_and_writes_nothing(tmp_path, capsys):
