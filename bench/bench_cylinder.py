@@ -17,8 +17,9 @@ is timed on them; the table gives wall time and radius error per scan size.
   axis directions in Python): it gets a random subset of ``--cf-points`` points.
 
 With ``--formats N``: an N-point scan written in every scanner format by the
-library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs,
-open3d, trimesh, numpy text layouts), read back with calib.scan_io.read_scan
+library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs
+(LAS 1.2 point format 3 and LAS 1.4 point format 6), open3d, trimesh, numpy
+text layouts), read back with calib.scan_io.read_scan
 (median of 5 reads, after one warm-up read that loads the library, each
 followed by a read of the PLY file), and fitted: read time, its ratio to
 the PLY reads next to it, file size and radius error.
@@ -127,9 +128,15 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=5):
     from calib.scan_io import read_scan
     from data_synthetic.scan_write import FORMATS, write_scan
 
-    library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs (parallel)", "glb": "trimesh (scene graph)",
-               "ply": "numpy (binary cloud)", "pts": "pyarrow", "xyz": "pyarrow", "txt": "pyarrow",
-               "pcd_ascii": "pyarrow", "pcd_binary": "numpy"}
+    try:
+        import lzf  # noqa: F401  (python-lzf, the optional ``fast`` extra)
+        lzf_reader = "python-lzf"
+    except ImportError:
+        lzf_reader = "open3d (no python-lzf)"
+    library = {"e57": "pye57 (libE57, x/y/z only)", "las": "laspy", "laz": "laspy + lazrs (parallel)",
+               "laz14": "laspy + lazrs (parallel, x/y/z layers)", "glb": "trimesh (scene graph)",
+               "ply": "numpy (binary cloud)", "pts": "polars", "xyz": "polars", "txt": "polars",
+               "pcd_ascii": "polars", "pcd_binary": "numpy", "pcd_compressed": lzf_reader}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
 
