@@ -17,11 +17,13 @@ is timed on them; the table gives wall time and radius error per scan size.
   axis directions in Python): it gets a random subset of ``--cf-points`` points.
 
 With ``--formats N``: an N-point scan written in every scanner format by the
-library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs,
-open3d, trimesh, numpy text layouts), read back with calib.scan_io.read_scan
-(median of 5 reads, after one warm-up read that loads the library, each
-followed by a read of the PLY file), and fitted: read time, its ratio to
-the PLY reads next to it, file size and radius error.
+library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs
+(LAS 1.2 point format 3 and LAS 1.4 point format 6), open3d, trimesh, numpy
+text layouts), read back with calib.scan_io.read_scan
+(median of 9 reads, after one warm-up read that loads the library, each
+followed by a read of the PLY file), and fitted: read time and CPU time, their
+ratios to the PLY reads next to them, file size and radius error; then the
+slow formats' libraries decoding alone (their floor).
 
 With ``--process N``: ``airmat fit`` and the recipe as a script
 (bench/recipe_cylinder.py, reading the file with open3d) run as whole
@@ -114,12 +116,16 @@ def run(sizes, repeats, seed, kappa, arc_deg, ransac_points, ransac_iterations, 
     return rows
 
 
-def format_rows(n, seed, kappa, arc_deg, n_reads=5):
-    """[(format, library, read s, read / PLY read, MB, radius error %)] for an n-point scan.
+def format_rows(n, seed, kappa, arc_deg, n_reads=9):
+    """[(format, library, read s, read / PLY read, CPU s, CPU / PLY CPU, MB, radius error %)] for an
+    n-point scan.
 
-    Each format's reads alternate with reads of the PLY file, and its ratio is
-    the median of its reads over the median of those PLY reads: on a shared
-    machine the load changes between formats, not between neighbouring reads.
+    Each format's reads alternate with reads of the PLY file, and its ratios
+    are the medians over the reads of read / the PLY read right after it: on
+    a shared machine the load changes between formats, and even between
+    rounds, less between neighbouring reads. CPU is this process's CPU time
+    (all threads): multi-threaded readers pay it on every core they use, and
+    it moves little with other jobs' load.
     """
     import tempfile
     from pathlib import Path
@@ -127,16 +133,22 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=5):
     from calib.scan_io import read_scan
     from data_synthetic.scan_write import FORMATS, write_scan
 
-    library = {"e57": "pye57", "las": "laspy", "laz": "laspy + lazrs (parallel)", "glb": "trimesh (scene graph)",
-               "ply": "numpy (binary cloud)", "pts": "pyarrow", "xyz": "pyarrow", "txt": "pyarrow",
-               "pcd_ascii": "pyarrow", "pcd_binary": "numpy"}
+    try:
+        import lzf  # noqa: F401  (python-lzf, the optional ``fast`` extra)
+        lzf_reader = "python-lzf"
+    except ImportError:
+        lzf_reader = "open3d (no python-lzf)"
+    library = {"e57": "pye57 (libE57, x/y/z only)", "las": "laspy", "laz": "laspy + lazrs (parallel)",
+               "laz14": "laspy + lazrs (parallel, x/y/z layers)", "glb": "trimesh (scene graph)",
+               "ply": "numpy (binary cloud)", "pts": "polars", "xyz": "polars", "txt": "polars",
+               "pcd_ascii": "polars", "pcd_binary": "numpy", "pcd_compressed": lzf_reader}
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     rows = []
 
     def timed(path):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         got = read_scan(path)
-        return time.perf_counter() - t0, got
+        return time.perf_counter() - t0, time.process_time() - c0, got
 
     with tempfile.TemporaryDirectory() as tmp:
         ply = write_scan(Path(tmp) / "scan_ply.ply", scan.points * 1e3, "ply", seed=seed)
@@ -145,16 +157,91 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=5):
             path = ply if fmt == "ply" else \
                 write_scan(Path(tmp) / f"scan_{fmt}{FORMATS[fmt]}", scan.points * 1e3, fmt, seed=seed)
             read_scan(path)  # warm-up: the library's import is start-up, not reading
-            times, t_ply = [], []
+            wall, cpu, r_wall, r_cpu = [], [], [], []
             for _ in range(n_reads):
-                dt, got = timed(path)
-                times.append(dt)
-                t_ply.append(timed(ply)[0])
+                dt, dc, got = timed(path)
+                dt_ply, dc_ply, _ = timed(ply)
+                wall.append(dt)
+                cpu.append(dc)
+                r_wall.append(dt / dt_ply)
+                r_cpu.append(dc / dc_ply)
             radius = fit_cylinder(got.points, seed=seed, quantization=got.quantization).radius
-            t = float(np.median(times))
-            rows.append((fmt, library.get(fmt, "open3d"), t, t / float(np.median(t_ply)),
+            rows.append((fmt, library.get(fmt, "open3d"), float(np.median(wall)), float(np.median(r_wall)),
+                         float(np.median(cpu)), float(np.median(r_cpu)),
                          os.path.getsize(path) / 1e6, abs(radius - scan.radius) / scan.radius * 100))
     return rows
+
+
+def decode_rows(n, seed, kappa, arc_deg, repeats=7):
+    """[(step, CPU s, wall s)]: the libraries' own decoding of an n-point scan, alone (no ``read_scan``).
+
+    The floor of each slow format's read, next to the whole ``read_scan`` of
+    the PLY file: polars' CSV parse of the XYZ and PTS files, lazrs's LAZ
+    decompression (format 3; format 6 with every layer and with the x/y/z
+    layers), libE57's decode of x/y/z, python-lzf's decompression of a
+    compressed PCD (when installed). Medians of ``repeats`` after a warm-up.
+    """
+    import tempfile
+    from pathlib import Path
+
+    import laspy
+    import polars as pl
+    import pye57
+
+    from calib.scan_io import read_scan
+    from calib.scan_readers import e57_reader, pcd_reader
+    from data_synthetic.scan_write import write_scan
+
+    scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
+    floats = lambda k: {f"f{i}": pl.Float64 for i in range(k)}  # noqa: E731
+    xyz_layers = laspy.DecompressionSelection.xy_returns_channel() | laspy.DecompressionSelection.Z
+    parallel = (laspy.LazBackend.LazrsParallel,)
+
+    def e57_decode(path):
+        e57 = pye57.E57(str(path))
+        try:
+            e57_reader._read_cartesian(e57, e57.get_header(0))
+        finally:
+            e57.close()
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        f = {fmt: write_scan(Path(tmp) / f"s_{fmt}{suffix}", scan.points * 1e3, fmt, seed=seed)
+             for fmt, suffix in [("ply", ".ply"), ("xyz", ".xyz"), ("pts", ".pts"), ("laz", ".laz"),
+                                 ("laz14", ".laz"), ("e57", ".e57"), ("pcd_compressed", ".pcd")]}
+        steps = [
+            ("read_scan of the PLY file (numpy read + checks)", lambda: read_scan(f["ply"])),
+            ("polars.read_csv, XYZ", lambda: pl.read_csv(f["xyz"], has_header=False, separator=" ",
+                                                        quote_char=None, schema=floats(3))),
+            ("polars.read_csv, PTS (3 of 7 columns)", lambda: pl.read_csv(
+                f["pts"], has_header=False, skip_lines=1, separator=" ", quote_char=None, schema=floats(7),
+                columns=[0, 1, 2])),
+            ("laspy.read, LAZ format 3 (lazrs parallel)", lambda: laspy.read(f["laz"], laz_backend=parallel)),
+            ("laspy.read, LAZ format 6, every layer", lambda: laspy.read(f["laz14"], laz_backend=parallel)),
+            ("laspy.read, LAZ format 6, x/y/z layers", lambda: laspy.read(
+                f["laz14"], laz_backend=parallel, decompression_selection=xyz_layers)),
+            ("libE57 decode of x/y/z", lambda: e57_decode(f["e57"])),
+        ]
+        header = pcd_reader._header(f["pcd_compressed"])
+        if pcd_reader._read_compressed(f["pcd_compressed"], header) is not None:
+            steps.append(("python-lzf + numpy columns, compressed PCD",
+                          lambda: pcd_reader._read_compressed(f["pcd_compressed"], header)))
+        for name, fn in steps:
+            fn()
+            wall, cpu = [], []
+            for _ in range(repeats):
+                t0, c0 = time.perf_counter(), time.process_time()
+                fn()
+                wall.append(time.perf_counter() - t0)
+                cpu.append(time.process_time() - c0)
+            rows.append((name, float(np.median(cpu)), float(np.median(wall))))
+    return rows
+
+
+def decode_markdown(rows, n, repeats=7):
+    head = (f"The libraries' own decoding alone, {n:,}-point scan (median of {repeats}; CPU: all threads)\n\n"
+            "| step | CPU (s) | wall (s) |\n|---|---:|---:|\n")
+    return head + "".join(f"| {name} | {c:.3f} | {w:.3f} |\n" for name, c, w in rows)
 
 
 def process_rows(n, seed, kappa, arc_deg, repeats=5):
@@ -210,13 +297,14 @@ def process_markdown(rows, ratio, floor_ratio, n, repeats):
                           for m, t, lo, hi, e in rows)
 
 
-def format_markdown(rows, n):
-    head = (f"Read time per format, {n:,}-point scan (median of 5 reads after a warm-up, each "
-            "followed by a PLY read: x PLY is against those; radius error of the fit of what was read)\n\n"
-            "| format | library | read (s) | × PLY read | file (MB) | radius error (%) |\n"
-            "|---|---|---:|---:|---:|---:|\n")
-    return head + "".join(f"| {f} | {lib} | {t:.3f} | {r:.2f} | {mb:.1f} | {e:.4f} |\n"
-                          for f, lib, t, r, mb, e in rows)
+def format_markdown(rows, n, n_reads=9):
+    head = (f"Read time per format, {n:,}-point scan (medians of {n_reads} reads after a warm-up, each "
+            "followed by a PLY read: × PLY is the median of read / that PLY read; CPU: this process's, all "
+            "threads; radius error of the fit of what was read)\n\n"
+            "| format | library | read (s) | × PLY read | CPU (s) | × PLY CPU | file (MB) | radius error (%) |\n"
+            "|---|---|---:|---:|---:|---:|---:|---:|\n")
+    return head + "".join(f"| {f} | {lib} | {t:.3f} | {r:.2f} | {c:.3f} | {rc:.2f} | {mb:.1f} | {e:.4f} |\n"
+                          for f, lib, t, r, c, rc, mb, e in rows)
 
 
 def markdown(rows, repeats, kappa, arc_deg):
@@ -260,6 +348,7 @@ def main(argv=None):
         print(process_markdown(rows, ratio, floor_ratio, args.process, args.process_repeats))
     if args.formats:
         print(format_markdown(format_rows(args.formats, args.seed, args.kappa, args.arc_deg), args.formats))
+        print(decode_markdown(decode_rows(args.formats, args.seed, args.kappa, args.arc_deg), args.formats))
     return 0
 
 

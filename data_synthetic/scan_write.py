@@ -18,7 +18,7 @@ __all__ = ["FORMATS", "write_scan"]
 
 #: format name -> file suffix
 FORMATS = {
-    "e57": ".e57", "las": ".las", "laz": ".laz", "pcd_ascii": ".pcd", "pcd_binary": ".pcd",
+    "e57": ".e57", "las": ".las", "laz": ".laz", "laz14": ".laz", "pcd_ascii": ".pcd", "pcd_binary": ".pcd",
     "pcd_compressed": ".pcd", "glb": ".glb", "pts": ".pts", "xyz": ".xyz", "txt": ".txt",
     "ply": ".ply",
 }
@@ -34,7 +34,8 @@ def write_scan(path: str | os.PathLike, points_mm, fmt: str, *, poses=None, seed
     points_mm : array_like of shape (N, 3)
         Coordinates (mm).
     fmt : str
-        The format and flavour.
+        The format and flavour ("laz": LAS 1.2 point format 3; "laz14": LAS
+        1.4 point format 6).
     poses : list of (rotation (3, 3), translation (3,) mm), optional
         E57 only: split the points into ``len(poses)`` scans, each stored in
         its scanner's frame with its pose (the reader must apply them).
@@ -48,13 +49,15 @@ def write_scan(path: str | os.PathLike, points_mm, fmt: str, *, poses=None, seed
     path = Path(path)
     pts = np.asarray(points_mm, dtype=float)
     rng = np.random.default_rng(seed)
-    writer = {"e57": _e57, "las": _las, "laz": _las, "glb": _glb, "ply": _trimesh_cloud}.get(fmt)
+    writer = {"e57": _e57, "las": _las, "laz": _las, "laz14": _las14, "glb": _glb, "ply": _trimesh_cloud}.get(fmt)
     if fmt.startswith("pcd"):
         _pcd(path, pts, fmt.split("_")[1])
     elif fmt in ("pts", "xyz", "txt"):
         _text(path, pts, fmt, rng)
     elif writer is _e57:
         _e57(path, pts, poses, rng)
+    elif writer is _las14:
+        _las14(path, pts, rng)
     else:
         writer(path, pts)
     return path
@@ -96,6 +99,23 @@ def _las(path, pts):
     las = laspy.LasData(header)
     las.x, las.y, las.z = m[:, 0], m[:, 1], m[:, 2]
     las.write(str(path))  # .laz compresses with lazrs
+
+
+def _las14(path, pts, rng):
+    """LAS 1.4, point format 6 (what current scanner and photogrammetry software writes), with intensity,
+    returns and GPS time: in a LAZ each is its own compressed layer."""
+    import laspy
+
+    m = pts * 1e-3
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.offsets = np.floor(m.min(axis=0))
+    header.scales = np.array([1e-5, 1e-5, 1e-5])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = m[:, 0], m[:, 1], m[:, 2]
+    las.intensity = rng.integers(0, 65536, len(m))
+    las.return_number = las.number_of_returns = np.ones(len(m), np.uint8)
+    las.gps_time = np.arange(len(m)) * 1e-6
+    las.write(str(path))
 
 
 def _pcd(path, pts, flavour):

@@ -42,7 +42,8 @@ if [ ! -x "$VENV/bin/python" ]; then
         apt-get install -y -qq python3-venv >/dev/null && "$PYTHON" -m venv "$VENV"; }
 fi
 "$VENV/bin/python" -m pip install -q --upgrade pip
-"$VENV/bin/python" -m pip install -q -e ".[test]"
+# the fast extra (python-lzf) builds from source: without a compiler, install without it (open3d reads those PCDs)
+"$VENV/bin/python" -m pip install -q -e ".[test,fast]" 2>/dev/null || "$VENV/bin/python" -m pip install -q -e ".[test]"
 "$VENV/bin/python" -c "import open3d, emcee, trimesh, skimage, igl, ezdxf, plotly" \
     || { echo "bootstrap: imports failed after install" >&2; exit 2; }
 echo "bootstrap: ready ($VENV)"

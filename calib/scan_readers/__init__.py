@@ -4,16 +4,16 @@ Each reader module holds one function ``read(path, *, scan_index) -> RawCloud``
 built on a well-kept library; :func:`read_cloud` imports only the reader the
 file needs (an ``airmat fit`` of a PLY loads no pye57 or laspy).
 
-========================  ====================  ============================================================
+========================  ====================  ==================================================================
 suffix                    reader module         library
-========================  ====================  ============================================================
+========================  ====================  ==================================================================
 .ply .obj .stl .off       ``mesh_reader``       trimesh; binary PLY point clouds: numpy
 .glb .gltf                ``mesh_reader``       trimesh (scenes with their node poses)
-.e57                      ``e57_reader``        pye57 (one scan, or all with their poses)
-.las .laz                 ``las_reader``        laspy with the lazrs LAZ backend (parallel)
-.pcd                      ``pcd_reader``        pyarrow/pandas (ascii); numpy (binary); open3d (compressed)
-.pts .xyz .txt            ``text_reader``       pyarrow, pandas and numpy fallbacks (columns, header/count line)
-========================  ====================  ============================================================
+.e57                      ``e57_reader``        pye57's libE57 (one scan, or all with their poses)
+.las .laz                 ``las_reader``        laspy with the lazrs LAZ backend (parallel, x/y/z layers)
+.pcd                      ``pcd_reader``        polars (ascii); numpy (binary); python-lzf or open3d (compressed)
+.pts .xyz .txt            ``text_reader``       polars, numpy fallback (columns, header/count line)
+========================  ====================  ==================================================================
 """
 
 from __future__ import annotations

@@ -4,6 +4,13 @@ E57 coordinates are metres by the standard. Each scan's pose (rotation and
 translation in the file) is applied, so merged scans share one frame.
 Points flagged invalid by the scanner (``cartesianInvalidState`` != 0) come
 back as NaN, so they are counted with the other non-finite points.
+
+A cartesian scan is decoded by libE57 (pye57's binding) straight into the
+columns of one (N, 3) float64 array, reading only x, y, z and the invalid
+flag; the pose is one matrix product, skipped when it is the identity.
+``pye57.E57.read_scan`` reads each field into its own array and stacks and
+transposes the points for the pose, even the identity: 3 times the CPU time
+on a 1M-point scan. Spherical scans go through it (it converts them).
 """
 
 from __future__ import annotations
@@ -37,10 +44,28 @@ def read(path: Path, *, scan_index: int | None = None) -> RawCloud:
         parts = [_scan_points(e57, i, path) for i in indices]
     finally:
         e57.close()
-    return RawCloud(vertices=np.concatenate(parts), units="m", n_scans=n)
+    return RawCloud(vertices=parts[0] if len(parts) == 1 else np.concatenate(parts), units="m", n_scans=n)
+
+
+#: the cartesian coordinate fields, in output column order
+_XYZ = ("cartesianX", "cartesianY", "cartesianZ")
 
 
 def _scan_points(e57, i: int, path: Path) -> np.ndarray:
+    """Scan ``i``'s points in the file's frame (its pose applied), metres, invalid ones NaN."""
+    try:
+        header = e57.get_header(i)
+        if set(_XYZ) <= set(header.point_fields):
+            xyz = _read_cartesian(e57, header)
+            if header.has_pose():
+                rot, shift = header.rotation_matrix, np.asarray(header.translation, float)
+                if not (np.array_equal(rot, np.eye(3)) and not shift.any()):
+                    xyz = xyz @ rot.T
+                    xyz += shift
+            return xyz
+    except Exception as err:
+        raise InputError(f"cannot read scan {i} of the E57 file: {library_message(err)}",
+                         path=path) from None
     try:
         data = e57.read_scan(i, ignore_missing_fields=True, transform=True)
     except Exception as err:
@@ -48,8 +73,30 @@ def _scan_points(e57, i: int, path: Path) -> np.ndarray:
                          path=path) from None
     if "cartesianX" not in data:
         raise InputError(f"scan {i} of the E57 file has no cartesian coordinates", path=path)
-    xyz = np.column_stack([data["cartesianX"], data["cartesianY"], data["cartesianZ"]]).astype(float)
-    invalid = data.get("cartesianInvalidState")
+    # spherical scans: pye57 converts them and leaves out the records flagged invalid
+    return np.column_stack([data["cartesianX"], data["cartesianY"], data["cartesianZ"]]).astype(float)
+
+
+def _read_cartesian(e57, header) -> np.ndarray:
+    """x, y, z of every record, float64 (N, 3): libE57 writes each into its column (a strided buffer)."""
+    from pye57 import libe57
+
+    n = header.point_count
+    xyz = np.empty((n, 3))
+    buffers = libe57.VectorSourceDestBuffer()
+    for j, name in enumerate(_XYZ):  # doConversion, doScaling: scaled integers and floats to double
+        buffers.append(libe57.SourceDestBuffer(e57.image_file, name, xyz[:, j], n, True, True, xyz.strides[0]))
+    invalid = None
+    if "cartesianInvalidState" in header.point_fields:
+        invalid = np.empty(n, np.int8)
+        buffers.append(libe57.SourceDestBuffer(e57.image_file, "cartesianInvalidState", invalid, n, True, True))
+    reader = header.points.reader(buffers)
+    try:
+        got = reader.read()
+    finally:
+        reader.close()
+    if got != n:
+        raise ValueError(f"read {got} of {n} records")
     if invalid is not None:
-        xyz[np.asarray(invalid) != 0] = np.nan
+        xyz[invalid != 0] = np.nan
     return xyz

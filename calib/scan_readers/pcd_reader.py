@@ -1,10 +1,12 @@
-"""PCD (PCL's format: ascii, binary, binary_compressed; organized clouds with NaN) through open3d.
+"""PCD (PCL's format: ascii, binary, binary_compressed; organized clouds with NaN).
 
-An ascii PCD is read with pyarrow's CSV reader, or pandas' C parser
-(:func:`calib.scan_readers.text_reader.read_columns_fast`, 5-10 times faster
-than open3d's), a binary one with ``np.fromfile`` and a structured dtype
-built from the header (FIELDS, SIZE, TYPE, COUNT); open3d reads
-binary_compressed bodies and whatever those two refuse.
+An ascii PCD is read with polars' CSV reader
+(:func:`calib.scan_readers.text_reader.read_columns_fast`, several times
+faster than open3d's), a binary one with ``np.fromfile`` and a structured
+dtype built from the header (FIELDS, SIZE, TYPE, COUNT), a binary_compressed
+one by python-lzf (liblzf; the optional ``fast`` extra) and numpy: its body
+is one LZF block holding each field's column in turn. open3d reads what
+those refuse, and compressed bodies when python-lzf is not installed.
 """
 
 from __future__ import annotations
@@ -26,8 +28,9 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     sizes = header.get("SIZE", [])
     float32 = "x" in fields and len(sizes) == len(fields) and sizes[fields.index("x")] == "4"
     data = header["DATA"][:1]
-    xyz = _read_ascii(path, header) if data == ["ascii"] else _read_binary(path, header) if data == ["binary"] \
-        else None
+    reader = {"ascii": _read_ascii, "binary": _read_binary, "binary_compressed": _read_compressed}.get(data[0]) \
+        if data else None
+    xyz = reader(path, header) if reader is not None else None
     if xyz is None:
         xyz = _read_open3d(path)
     declared = int(header.get("POINTS", ["0"])[0]) if header.get("POINTS", [""])[0].isdigit() else None
@@ -56,36 +59,74 @@ def _read_ascii(path: Path, header: dict) -> np.ndarray | None:
         return None
     start = np.concatenate([[0], np.cumsum([int(c) for c in counts])])
     cols = [int(start[fields.index(a)]) for a in "xyz"]
-    with open(path, "rb") as fh:
-        xyz = read_columns_fast(fh, header["_skip"], None, cols, nan=True)
-    if xyz is None:
-        return None
-    xyz = xyz[:, np.argsort(np.argsort(cols))]  # the columns come in file order
-    return xyz
+    return read_columns_fast(path, header["_skip"], None, int(start[-1]), cols, nan=True)
 
 
 #: PCD TYPE letter -> numpy kind
 _KINDS = {"F": "f", "I": "i", "U": "u"}
 
 
-def _read_binary(path: Path, header: dict) -> np.ndarray | None:
-    """x, y, z of a binary (uncompressed, little-endian) body, NaN kept, or None for an unusual header."""
+def _fields(header: dict) -> list[np.dtype] | None:
+    """Each field's numpy type, shaped by its COUNT (little-endian), or None for an unusual header."""
     fields, sizes, types = header["FIELDS"], header.get("SIZE", []), header.get("TYPE", [])
     counts = header.get("COUNT", ["1"] * len(fields))
     if not (len(fields) == len(sizes) == len(types) == len(counts)) or not {"x", "y", "z"} <= set(fields) \
-            or not all(c.isdigit() and z.isdigit() and t in _KINDS for c, z, t in zip(counts, sizes, types)):
+            or not all(c.isdigit() and z.isdigit() and t in _KINDS for c, z, t in zip(counts, sizes, types)) \
+            or not header.get("POINTS", [""])[0].isdigit():
         return None
+    return [np.dtype((f"<{_KINDS[t]}{z}", (int(c),))) for z, t, c in zip(sizes, types, counts)]
+
+
+def _read_binary(path: Path, header: dict) -> np.ndarray | None:
+    """x, y, z of a binary (uncompressed, little-endian) body, NaN kept, or None for an unusual header."""
+    types = _fields(header)
+    if types is None:
+        return None
+    fields = header["FIELDS"]
     # PCL pads records with repeated "_" fields: name the columns by position
-    dtype = np.dtype([(f"f{i}", f"<{_KINDS[t]}{z}", (int(c),))
-                      for i, (z, t, c) in enumerate(zip(sizes, types, counts))])
-    if not header.get("POINTS", [""])[0].isdigit():
-        return None
+    dtype = np.dtype([(f"f{i}", t) for i, t in enumerate(types)])
     n = int(header["POINTS"][0])
     if path.stat().st_size - header["_body"] < dtype.itemsize * n:
         raise InputError(f"cannot parse PCD file (truncated or corrupt?): the body holds fewer than the "
                          f"{n} points declared", path=path)
     data = np.fromfile(path, dtype=dtype, count=n, offset=header["_body"])
     return np.column_stack([data[f"f{fields.index(a)}"][:, 0] for a in "xyz"]).astype(float)
+
+
+def _read_compressed(path: Path, header: dict) -> np.ndarray | None:
+    """x, y, z of a binary_compressed body (LZF, one column per field in turn), NaN kept, or None
+    (no python-lzf, an unusual header, or a body that does not decompress to the declared size).
+
+    The body: uint32 compressed size, uint32 decompressed size, the LZF
+    block; decompressed, field k is ``POINTS`` values of its type and COUNT,
+    after the columns of the fields before it.
+    """
+    try:
+        import lzf  # python-lzf: liblzf's decoder (the optional ``fast`` extra)
+    except ImportError:
+        return None
+    types = _fields(header)
+    if types is None:
+        return None
+    n = int(header["POINTS"][0])
+    with open(path, "rb") as fh:
+        fh.seek(header["_body"])
+        sizes = np.frombuffer(fh.read(8), "<u4")
+        if len(sizes) != 2 or int(sizes[1]) != n * sum(t.itemsize for t in types):
+            return None
+        block = fh.read(int(sizes[0]))
+    try:
+        body = lzf.decompress(block, int(sizes[1])) if n else b""
+    except ValueError:  # corrupt or truncated: open3d reads it or the point count refuses it
+        return None
+    if body is None or len(body) != int(sizes[1]):
+        return None
+    starts = np.concatenate([[0], np.cumsum([n * t.itemsize for t in types])])
+    xyz = np.empty((n, 3))
+    for j, a in enumerate("xyz"):
+        k = header["FIELDS"].index(a)
+        xyz[:, j] = np.frombuffer(body, types[k], count=n, offset=int(starts[k]))[:, 0]
+    return xyz
 
 
 def _header(path: Path) -> dict:

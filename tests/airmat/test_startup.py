@@ -73,7 +73,8 @@ print(json.dumps({{"code": code, "kappa": json.loads(out.getvalue())["kappa_per_
     assert got["kappa"] == pytest.approx(4.0, rel=0.05)
     # nor scipy, scikit-image, open3d or trimesh: their imports alone would cost more than a
     # fit of a million points (README, "Cylinder fit vs peers")
-    for name in ("matplotlib", "emcee", "scipy", "skimage", "open3d", "trimesh", "pandas", *NOT_FOR_CALIBRATION):
+    for name in ("matplotlib", "emcee", "scipy", "skimage", "open3d", "trimesh", "pandas", "polars",
+                 *NOT_FOR_CALIBRATION):
         assert name not in got["loaded"], name
 
 

@@ -31,7 +31,7 @@ def spec():
 def test_every_format_written_by_its_library_fits_within_half_a_percent(tmp_path, spec, fmt):
     path = write_scan(tmp_path / f"s{FORMATS[fmt]}", spec.points * 1e3, fmt, seed=1)
     scan = read_scan(path)
-    assert scan.units == ("m" if fmt in ("e57", "las", "laz") else "mm")
+    assert scan.units == ("m" if fmt in ("e57", "las", "laz", "laz14") else "mm")
     assert len(scan.points) == len(spec.points) and scan.n_nonfinite_dropped == 0
     # the same points, to the file's precision (LAS: 0.01 mm; text: 1e-4 mm; float32: ~1e-7 m)
     assert _max_nn_distance(scan.points + scan.offset, spec.points) < 2e-5
@@ -260,20 +260,44 @@ def test_fast_text_read_is_bit_identical_to_loadtxt(tmp_path, spec, fmt):
     assert got.dtype == np.float64 and np.array_equal(got, ref)
 
 
-def test_text_rows_pandas_refuses_go_to_loadtxt(tmp_path):
+def test_text_rows_polars_refuses_go_to_loadtxt(tmp_path):
     from calib.scan_readers import read_cloud
     from calib.scan_readers.text_reader import read_columns_fast
 
     path = tmp_path / "n.xyz"
     path.write_text("1 2 3\nnan 5 6\n7 8 9\n")  # nan: loadtxt reads it, the caller drops it
-    with open(path, "rb") as fh:
-        assert read_columns_fast(fh, 0, None) is None
+    assert read_columns_fast(path, 0, None, 3) is None
     got = read_cloud(path).vertices
     assert np.isnan(got[1, 0]) and got[2].tolist() == [7.0, 8.0, 9.0]
     short = tmp_path / "short.xyz"
     short.write_text("1 2 3\n4 5\n7 8 9\n")  # never a silently filled value
+    assert read_columns_fast(short, 0, None, 3) is None
     with pytest.raises(InputError, match="cannot parse XYZ columns"):
         read_cloud(short)
+    aligned = tmp_path / "aligned.xyz"  # runs of blanks: loadtxt
+    aligned.write_text("1  2 3\n4 5   6\n")
+    assert read_columns_fast(aligned, 0, None, 3) is None
+    assert read_cloud(aligned).vertices.tolist() == [[1, 2, 3], [4, 5, 6]]
+
+
+@pytest.mark.parametrize("text", [
+    "1 2 3 9\n# a comment below the first row\n4 5 6 9\n7 8 9 9\n",   # polars' second pass
+    "1\t2\t3\n4\t5\t6\n7\t8\t9\n",                                 # tabs
+    "1 2 3\n4 5 6\n7 8 9\n\n\n",                                       # blank lines at the end
+    "1,2,3,a word\r\n4,5,6,x\r\n7,8,9,y\r\n",                         # CRLF; further columns not parsed
+    "1 2 3\n4 5 6 7 8\n7 8 9 10\n",                                     # rows longer than the first
+])
+def test_text_layouts_polars_reads(tmp_path, text):
+    from calib.scan_readers import read_cloud
+    from calib.scan_readers.text_reader import _layout, read_columns_fast
+
+    path = tmp_path / "c.txt"
+    path.write_bytes(text.encode())
+    skip, delimiter, width = _layout(text.splitlines(), path)
+    fast = read_columns_fast(path, skip, delimiter, width)
+    want = [[1, 2, 3], [4, 5, 6], [7, 8, 9]]
+    assert fast is not None and fast.tolist() == want and fast.flags["C_CONTIGUOUS"]
+    assert read_cloud(path).vertices.tolist() == want
 
 
 def test_ascii_pcd_read_as_open3d_reads_it(tmp_path, spec):
@@ -362,3 +386,64 @@ def test_binary_pcd_read_by_numpy_as_open3d_reads_it(tmp_path, spec):
     cut.write_bytes(head + body.tobytes()[:-10])
     with pytest.raises(InputError, match="truncated or corrupt"):
         read_scan(cut)
+
+
+def test_compressed_pcd_read_by_lzf_as_open3d_reads_it(tmp_path, spec, monkeypatch):
+    pytest.importorskip("lzf")
+    import sys
+
+    import open3d as o3d
+
+    from calib.scan_readers import pcd_reader
+
+    pts = spec.points[:5000] * 1e3
+    pts[::11] = np.nan
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+    rng = np.random.default_rng(0)
+    cloud.normals = o3d.utility.Vector3dVector(rng.normal(size=pts.shape))
+    cloud.colors = o3d.utility.Vector3dVector(rng.uniform(size=pts.shape))
+    path = tmp_path / "c.pcd"  # fields x y z normal_x normal_y normal_z curvature rgb, one LZF block
+    o3d.io.write_point_cloud(str(path), cloud, compressed=True)
+    assert b"binary_compressed" in path.read_bytes()[:400]
+    header = pcd_reader._header(path)
+    got = pcd_reader._read_compressed(path, header)
+    assert got is not None and got.shape == pts.shape
+    assert np.array_equal(got, pcd_reader._read_open3d(path), equal_nan=True)
+    assert np.array_equal(got, pts.astype(np.float32), equal_nan=True)  # open3d stores float32
+    monkeypatch.setitem(sys.modules, "lzf", None)  # python-lzf missing: open3d reads it, same points
+    assert pcd_reader._read_compressed(path, header) is None
+    assert np.array_equal(pcd_reader.read(path).vertices, got, equal_nan=True)
+    monkeypatch.undo()
+    cut = tmp_path / "cut.pcd"
+    cut.write_bytes(path.read_bytes()[:-2000])
+    with pytest.raises(InputError, match="cannot parse PCD file"):
+        read_scan(cut)
+
+
+def test_laz14_decodes_only_the_xyz_layers_with_the_same_bits(tmp_path, spec):
+    import laspy
+
+    from calib.scan_readers import las_reader
+
+    path = write_scan(tmp_path / "s.laz", spec.points * 1e3, "laz14", seed=2)
+    full = laspy.read(str(path))
+    assert full.header.point_format.id == 6 and full.intensity.max() > 0  # other layers hold data
+    want = np.column_stack([np.asarray(full.x), np.asarray(full.y), np.asarray(full.z)])
+    got = las_reader.read(path).vertices
+    assert np.array_equal(got, want) and got.flags["C_CONTIGUOUS"]
+
+
+def test_e57_invalid_points_become_nan_and_are_dropped(tmp_path, spec):
+    import pye57
+
+    pts = spec.points[:3000]
+    invalid = np.zeros(len(pts), np.int8)
+    invalid[::13] = 2
+    path = tmp_path / "inv.e57"
+    e57 = pye57.E57(str(path), mode="w")
+    e57.write_scan_raw({"cartesianX": pts[:, 0], "cartesianY": pts[:, 1], "cartesianZ": pts[:, 2],
+                        "cartesianInvalidState": invalid})
+    e57.close()
+    scan = read_scan(path)
+    assert scan.n_nonfinite_dropped == np.count_nonzero(invalid)
+    assert np.array_equal(scan.points + scan.offset, pts[invalid == 0].astype(np.float32))  # pye57 writes floats
