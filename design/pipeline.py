@@ -168,6 +168,22 @@ class DesignResult:
         return self.approx.mattress
 
 
+#: relative difference of the design's L from the calibration's beyond which the lengths are extrapolated
+L_TOLERANCE = 0.10
+
+
+def _span_notes(L: float, calibration) -> tuple:
+    """A note (and a warning) when the design's L is not the one Equation 3 was calibrated at."""
+    if abs(L / calibration.L - 1.0) <= L_TOLERANCE:
+        return ()
+    note = (f"L = {L * 1e3:.0f} mm differs from the calibration's L = {calibration.L * 1e3:.0f} mm: Equation 3 "
+            f"was calibrated at {calibration.L * 1e3:.0f} mm, so these lengths are extrapolated (the simulated "
+            f"specimen at L = 150 mm bends up to 25 % less than Equation 3 predicts: `airmat validate --L-mm 150`); "
+            f"calibrate with specimens at {L * 1e3:.0f} mm to rely on them")
+    log.warning(note)
+    return (note,)
+
+
 def design(target, mattress, *, calibration: CalibrationSource | None = None,
            params: DesignParams = DesignParams(), seed: int = 0, progress: bool = True) -> DesignResult:
     """Design the string pattern that bends ``mattress`` into an approximation of ``target``.
@@ -226,7 +242,8 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
                              height=mattress.height, kappa_min=params.kappa_min, L=L, mu2=sp.mu2, margin=sp.margin)
     for note in cover.notes():
         log.info(note)
-    pattern = dataclasses.replace(pattern, notes=pattern.notes + cover.notes(), coverage=cover.summary_mm())
+    pattern = dataclasses.replace(pattern, notes=pattern.notes + cover.notes() + _span_notes(L, calibration),
+                                  coverage=cover.summary_mm())
     timings["lengths"] = time.perf_counter() - t
     return DesignResult(name=target.name, approx=approx, pattern=pattern, calibration=calibration, params=params,
                         seed=int(seed), mfield=mfield, stripes=stripes, timings=timings)

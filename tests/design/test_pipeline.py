@@ -131,3 +131,16 @@ def test_negative_tie_grid_is_refused():
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
     with pytest.raises(InputError, match="tie grid"):
         design(surf, MATTRESS, params=DesignParams(tie_grid=-0.02), progress=False)
+
+
+def test_a_span_other_than_the_calibrations_is_said(cyl, caplog):
+    """Equation 3 is calibrated at the calibration's L; a design at another L says its lengths are
+    extrapolated (in the notes that design.json and the drawings carry, and as a warning)."""
+    _, at_L = cyl
+    assert not any("extrapolated" in n for n in at_L.pattern.notes)
+    surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
+    with caplog.at_level("WARNING", logger="design.pipeline"):
+        r = design(surf, MATTRESS, calibration=POINT, params=DesignParams(spacing=0.04, L=0.2), progress=False)
+    (note,) = [n for n in r.pattern.notes if "extrapolated" in n]
+    assert "L = 200 mm" in note and "L = 300 mm" in note and "airmat validate --L-mm" in note
+    assert any("extrapolated" in m for m in caplog.messages)
