@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.geometry.topology import mesh_edges
+from airmat.geometry.topology import flat_vertex_areas, mesh_edges
 from design.relax import OFF_TARGET
 
 __all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX"]
@@ -93,16 +93,6 @@ def edge_sigma(xyz, uv, faces, rest=None):
     return edges, num / den
 
 
-def _cross2(a, b):
-    """z component of the cross product of 2-vectors (k, 2)."""
-    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-
-
-def _vertex_areas(uv, faces):
-    area = 0.5 * np.abs(_cross2(uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]))
-    return np.bincount(faces.ravel(), weights=np.repeat(area / 3, 3), minlength=len(uv))
-
-
 def _where(points_mm):
     x, y = np.round(points_mm).astype(int)
     return f"({x}, {y}) mm on Ω"
@@ -145,7 +135,7 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
     flat = metric is None or metric.flat
     edges, sig = edge_sigma(xyz, uv, faces, None if flat else metric.rest)
     mid_mm = 500.0 * (uv[edges[:, 0]] + uv[edges[:, 1]])
-    area = _vertex_areas(uv, faces)
+    area = flat_vertex_areas(uv, faces)
     absk = np.abs(kappa)
     reasons = []
     for bad, worst, word in ((sig < lo, np.argmin(sig), f"below {lo:g}"),

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airmat.geometry.topology import mesh_edges
+from airmat.geometry.topology import flat_vertex_areas, mesh_edges
 
 __all__ = ["FaceMetric", "face_metric", "named_face", "relax_in_face_metric", "ROUNDS"]
 
@@ -70,12 +70,6 @@ class FaceMetric:
         return {"face": self.face, "min_ratio": float(self.ratio.min()) if self.ratio.size else 1.0}
 
 
-def _vertex_areas(uv, faces):
-    d1, d2 = uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]
-    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-    return np.bincount(faces.ravel(), weights=np.repeat(area / 3, 3), minlength=len(uv))
-
-
 def named_face(kappa, uv, faces, *, kappa_min: float = 0.25) -> str:
     """The face Ŝ stands for: opposite the sign of curvature that needs more string.
 
@@ -105,7 +99,7 @@ def named_face(kappa, uv, faces, *, kappa_min: float = 0.25) -> str:
     """
     kappa = np.asarray(kappa, float)
     need = np.where(np.abs(kappa) >= kappa_min, kappa, 0.0)
-    area = _vertex_areas(np.asarray(uv, float), np.asarray(faces))
+    area = flat_vertex_areas(uv, faces)
     pos, neg = area @ np.maximum(need, 0).sum(axis=1), area @ np.maximum(-need, 0).sum(axis=1)
     return "top" if pos >= neg else "bottom"
 

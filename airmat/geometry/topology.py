@@ -1,4 +1,4 @@
-"""Topology of a triangle mesh: its edges, its boundary, and the cotangent Laplacian of a flat mesh.
+"""Topology of a triangle mesh: its edges, its boundary, and the cotangent Laplacian and areas of a flat mesh.
 
 The designer's U_A3 umbrella term (:func:`design.relax.umbrella_operator`) and
 the simulator's U_B5 smoothing (:func:`inflation.energy.smoothing_matrix`)
@@ -11,7 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 
 __all__ = ["face_edges", "mesh_edges", "boundary_edge_mask", "boundary_vertex_mask", "boundary_vertices",
-           "boundary_face_flags", "cotangent_matrix", "cotangent_umbrella"]
+           "boundary_face_flags", "cotangent_matrix", "cotangent_umbrella", "flat_vertex_areas"]
 
 
 def face_edges(faces: np.ndarray) -> np.ndarray:
@@ -136,3 +136,17 @@ def cotangent_umbrella(uv: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:
     """
     cot = cotangent_matrix(uv, faces)
     return sp.diags(-1.0 / cot.diagonal()) @ cot
+
+
+def flat_vertex_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Lumped area of each vertex of a flat mesh (n,): a third of each adjacent triangle's area (m²).
+
+    Examples
+    --------
+    >>> flat_vertex_areas(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), np.array([[0, 1, 2]])).round(4).tolist()
+    [0.1667, 0.1667, 0.1667]
+    """
+    uv, faces = np.asarray(uv, float), np.asarray(faces)
+    d1, d2 = uv[faces[:, 1]] - uv[faces[:, 0]], uv[faces[:, 2]] - uv[faces[:, 0]]
+    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    return np.bincount(faces.ravel(), weights=np.repeat(area / 3, 3), minlength=len(uv))
