@@ -423,7 +423,7 @@ def _reduce(a, r):
 
 
 def _damped_step(rr, qtr, scale, lam, lower, upper):
-    """The bounded Levenberg–Marquardt step: argmin ``|R s + Qᵀr|² + lam |scale · s|²`` with ``lower <= s <= upper``.
+    """The bounded Levenberg–Marquardt step: argmin ``|R s + Qᵀr|² + lam |scale · s|²``, ``lower <= s <= upper``.
 
     Parameters
     ----------
