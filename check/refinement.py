@@ -16,7 +16,10 @@ Jacobian of the face is ``P dx/dl*`` with ``dx/dl* = -H⁻¹ ∂g/∂l*``
 (:mod:`check.adjoint`: one factorization of the Newton Hessian at each
 accepted equilibrium, one back-substitution per string); each trial step's
 equilibrium starts from the last one moved by the first-order predictor
-(a few Newton steps, never from the flat mattress). Bounds: from the
+(a few Newton steps, never from the flat mattress). The damped subproblems
+of an iteration are solved on the k × k factor R of one thin QR of the
+stacked Jacobian (the same steps as on the tall matrix, in a fraction of
+the time on the large mattress). Bounds: from the
 shortest a tie allows (real l = 0, through the length map) to the string's
 flat span (no bend). Stopping rule: over an accepted step the model
 predicted well (ρ > 0.25), a decrease of the RMS below ``rms_tol`` or a
@@ -29,7 +32,9 @@ long. So the iterations run on the mesh twice as coarse (a Newton
 iteration there is about 6x cheaper), whose face is corrected by the
 difference of the two meshes' faces at the open-loop lengths (so that the
 coarse objective starts where the fine one is); ``coarsest=0`` runs them
-all at the target resolution.
+all at the target resolution. The coarse open-loop equilibrium is the first
+inflation's own level on that mesh (its continuation passes through it)
+carried on to the full tolerance, not a second inflation.
 
 The refined lengths are checked by a fresh inflation (the check's own path,
 flat start and ramp), which gives ``deviation_after``; if it is worse than
@@ -188,6 +193,18 @@ def _problem(mesh, strings, params, design, named, tol) -> _Problem:
                     face_operator(mesh, design.approx.uv, named), design.approx.xyz, tol, 50)
 
 
+def _coarse_start(cprob: _Problem, first, strings, params, tol):
+    """The open-loop equilibrium on ``cprob``'s mesh: the first inflation's level on that mesh (solved
+    there to the continuation's looser tolerance) carried on to ``tol``; a fresh inflation when it has none."""
+    h = float(np.max(cprob.mesh.spacing))
+    for m, x in first.levels:
+        if m.n_vertices == cprob.mesh.n_vertices and np.isclose(float(np.max(m.spacing)), h):
+            eq = cprob.equilibrium(strings.rest, x)
+            if eq is not None:
+                return eq
+    return inflate(cprob.mesh, strings, params=params, tol=tol)
+
+
 def _coarse_resolution(resolution: float, span: np.ndarray, coarsest: float):
     """Twice ``resolution`` when that stays <= ``coarsest`` and leaves 4 edges along every string, else None."""
     coarse = 2.0 * resolution
@@ -270,7 +287,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(strings.b - strings.a, axis=1)
     named = length_keeping_face(share, strings.top) if surface == "auto" else surface
     ti = time.perf_counter()
-    first = inflate(mesh, strings, params=params, tol=tol)
+    first = inflate(mesh, strings, params=params, tol=tol, keep_levels=True)
     t_inflate = time.perf_counter() - ti
     dev0 = deviation(first, design.approx.xyz, design.approx.uv, named)
     prob = _problem(mesh, strings, params, design, named, tol)
@@ -285,7 +302,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         # by the difference of the two meshes' faces at the open-loop lengths
         cmesh = build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=coarse)
         cprob = _problem(cmesh, strings, params, design, named, tol)
-        cstart = inflate(cmesh, strings, params=params, tol=tol)
+        cstart = _coarse_start(cprob, first, strings, params, tol)
         cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz     # the face here minus the coarse one
         cprob.tol = trial_tol
         gc = _gauss_newton(cprob, l_open, l_open, cstart.xyz, lo, hi, max_iter=max_iter - fine_iter, **kw)
@@ -347,10 +364,10 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
         a = np.vstack([jac, w * np.eye(k)])
         r = np.concatenate([fit.residual, w * (l - l_reg)])
         scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
+        reduced = _reduce(a, r)
         accepted = False
         for _ in range(8):
-            aug = np.vstack([a, np.sqrt(lam) * np.diag(scale)])
-            step = lsq_linear(aug, -np.concatenate([r, np.zeros(k)]), bounds=(lo - l, hi - l)).x
+            step = _damped_step(*reduced, scale, lam, lo - l, hi - l)
             predicted = float(r @ r - np.sum((r + a @ step) ** 2))
             if np.max(np.abs(step)) < xtol or predicted <= 0:
                 converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
@@ -383,6 +400,48 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
         it += 1
     return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
             "objective_before": f_start, "objective_after": f}
+
+
+def _reduce(a, r):
+    """The thin QR reduction of the linearized least squares ``|a s + r|²``: ``(R, Qᵀr)``.
+
+    ``|a s + r|² = |R s + Qᵀr|² + |r|² - |Qᵀr|²`` for ``a = QR``, so every damped subproblem
+    of an iteration is solved on the k × k ``R`` instead of the (3N + k) × k ``a`` (on the
+    large mattress the tall problem made each ``lsq_linear`` call take seconds).
+
+    Parameters
+    ----------
+    a : ndarray of shape (m, k)
+    r : ndarray of shape (m,)
+
+    Returns
+    -------
+    tuple of (ndarray of shape (k, k), ndarray of shape (k,))
+    """
+    q, rr = np.linalg.qr(a)
+    return rr, q.T @ r
+
+
+def _damped_step(rr, qtr, scale, lam, lower, upper):
+    """The bounded Levenberg–Marquardt step: argmin ``|R s + Qᵀr|² + lam |scale · s|²``, ``lower <= s <= upper``.
+
+    Parameters
+    ----------
+    rr, qtr : ndarray of shape (k, k), (k,)
+        From :func:`_reduce`.
+    scale : ndarray of shape (k,)
+        Column norms of the tall matrix (the damping's scaling).
+    lam : float
+    lower, upper : ndarray of shape (k,)
+        Bounds of the step (m).
+
+    Returns
+    -------
+    ndarray of shape (k,)
+    """
+    k = len(scale)
+    aug = np.vstack([rr, np.sqrt(lam) * np.diag(scale)])
+    return lsq_linear(aug, -np.concatenate([qtr, np.zeros(k)]), bounds=(lower, upper)).x
 
 
 def refined_design(design, l_real, dropped, flagged):

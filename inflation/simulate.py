@@ -58,6 +58,9 @@ class Inflation:
         String-ramp stages solved.
     string_lengths : ndarray of shape (k,)
         Realized length of each external string (m).
+    levels : tuple of (MattressMesh, ndarray of shape (n_l, 3))
+        The coarser meshes of the continuation and their solutions (to ``level_tol``),
+        finest first; empty unless :func:`inflate` was asked to keep them.
     """
 
     mesh: MattressMesh
@@ -70,6 +73,7 @@ class Inflation:
     energy: float
     stages: int
     string_lengths: np.ndarray
+    levels: tuple = ()
 
     @property
     def mid_surface(self) -> np.ndarray:
@@ -164,7 +168,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
             tol: float = 1e-6, stages: int = 4, stage_tol: float = 3e-2, level_tol: float = 1e-3,
             coarsest: float = 0.08, dent: float = 0.0, max_iter: int = 200,
-            strict: bool = False) -> Inflation:
+            strict: bool = False, keep_levels: bool = False) -> Inflation:
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.
 
     The string ramp is solved on the coarsest mesh of the continuation
@@ -197,6 +201,8 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
         Newton iterations per stage.
     strict : bool
         Raise :class:`ConvergenceError` when the final solve does not converge.
+    keep_levels : bool
+        Keep the coarser meshes' solutions in ``Inflation.levels`` (they do not change the result).
 
     Returns
     -------
@@ -209,7 +215,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     levels = coarse_resolutions(resolution, coarsest=coarsest, shortest_span=span, per_string=3.0)
     meshes = [mesh] + [build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=r)
                        for r in levels[1:]]
-    x, n_iter, n_stages, hint = None, 0, 0, 0.0
+    x, n_iter, n_stages, hint, kept = None, 0, 0, 0.0, []
     for k in range(len(meshes) - 1, -1, -1):
         m = meshes[k]
         x = start_positions(m, strings, dent=dent) if x is None else prolong(meshes[k + 1], x, m)
@@ -218,6 +224,8 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
                                             stages=stages if first else 1, stage_tol=stage_tol,
                                             max_iter=max_iter, hint_rel=hint)
         x, n_iter, n_stages = result.xyz, n_iter + it, n_stages + st
+        if keep_levels and k > 0:
+            kept.insert(0, (m, x))
         log.debug("inflation on the %.0f mm mesh: %d iterations, residual %.2e", 1e3 * max(m.spacing),
                   it, result.residual)
     if not result.converged and strict:
@@ -226,7 +234,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     lengths = model.springs[-1].lengths(x) if has_strings else np.zeros(0)
     return Inflation(mesh=mesh, xyz=x, converged=result.converged, n_iter=n_iter, residual=result.residual,
                      message=result.message, seconds=time.perf_counter() - t0, energy=result.energy,
-                     stages=n_stages, string_lengths=lengths)
+                     stages=n_stages, string_lengths=lengths, levels=tuple(kept))
 
 
 def _inflate_task(shared, strings):

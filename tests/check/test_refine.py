@@ -176,3 +176,43 @@ def test_two_level_refinement_iterates_on_the_coarse_mesh_and_the_check_reproduc
     # the same input gives the same lengths (no random step)
     again = refine(case, resolution=0.02, max_iter=6)
     np.testing.assert_array_equal(again.l_simulated, r.l_simulated)
+
+
+def test_the_reduced_damped_step_is_the_tall_problems_step():
+    # the k × k reduction (thin QR) gives the bounded Levenberg–Marquardt step of the (3N + k) × k problem
+    from scipy.optimize import lsq_linear
+
+    from check.refinement import _damped_step, _reduce
+    rng = np.random.default_rng(3)
+    a, r = rng.normal(size=(400, 15)), rng.normal(size=400)
+    scale = np.linalg.norm(a, axis=0)
+    lower, upper = -0.04 * np.ones(15), 0.05 * np.ones(15)
+    for lam in (1e-3, 0.3, 30.0):
+        got = _damped_step(*_reduce(a, r), scale, lam, lower, upper)
+        tall = lsq_linear(np.vstack([a, np.sqrt(lam) * np.diag(scale)]), -np.concatenate([r, np.zeros(15)]),
+                          bounds=(lower, upper)).x
+        np.testing.assert_allclose(got, tall, atol=1e-9)
+        if lam == 1e-3:      # the bounds bind here
+            assert np.sum(np.isclose(got, lower) | np.isclose(got, upper)) >= 2
+
+
+def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
+    # the first inflation keeps its coarser levels (without changing its result); the open-loop equilibrium
+    # on the 40 mm mesh carried on from its level is the one a fresh inflation on that mesh finds
+    from check.refinement import _coarse_start
+    from check.refinement import _problem as refine_problem
+    s = design_strings(case)
+    m = case.mattress
+    mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.02)
+    kept = inflate(mesh, s, keep_levels=True)
+    plain = inflate(mesh, s)
+    np.testing.assert_array_equal(kept.xyz, plain.xyz)
+    cmesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.04)
+    coarser = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.08)
+    assert plain.levels == ()
+    assert [(lm.n_vertices, len(x)) for lm, x in kept.levels] == [(cmesh.n_vertices,) * 2, (coarser.n_vertices,) * 2]
+    cprob = refine_problem(cmesh, s, Parameters(), case, "top", 1e-6)
+    start = _coarse_start(cprob, kept, s, Parameters(), 1e-6)
+    fresh = inflate(cmesh, s)
+    assert start.converged and start.n_iter < fresh.n_iter
+    assert np.max(np.abs(start.xyz - fresh.xyz)) < 1e-6     # m: the same equilibrium
