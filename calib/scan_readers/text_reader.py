@@ -6,10 +6,10 @@ tabs, commas or semicolons; an optional header line of names (CloudCompare's
 Metashape ``.pts``; open3d reads it as a point), ``#`` comments.
 
 ``polars.read_csv`` parses on every core with an explicit float64 schema,
-converting only the columns needed (the rest of each row is skipped): on
-1M-point scans it takes 1.4-1.6 times less CPU time than pyarrow's CSV reader
-and half that of ``numpy.loadtxt`` (numpy's C parser, one thread), with the
-same bits (all three round decimals correctly). ``#`` comment lines below the
+converting only the columns needed (the rest of each row is skipped), with
+the same bits as ``numpy.loadtxt`` (numpy's C parser, one thread; both round
+decimals correctly); the CPU time of a 1M-point read is in the README under
+``bench/bench_cylinder.py --formats``. ``#`` comment lines below the
 first row get a second polars pass (looking for them costs it half again).
 What polars does not read cleanly (runs of blanks, a short row, a word,
 ``nan`` in a scan, a ``//`` comment below the header, old-Mac line ends) goes
