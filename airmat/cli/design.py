@@ -142,6 +142,7 @@ def summary_text(doc: dict, out) -> str:
                      f"average (max {tg['end_shift_mm']['max']:.1f}), L changed by up to "
                      f"{tg['dL_mm']['max_abs']:.1f} mm")
     lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
+    lines.extend(f"  warning: {n}" for n in s.get("notes", []) if "extrapolated" in n)
     lines.append("  constructible: yes" if r["constructible"] else
                  "  constructible: NO: " + "; ".join(r["reasons"]))
     flagged = sum(1 for d in doc["dashes"] if "beyond_reach" in d["flags"])

@@ -71,7 +71,7 @@ def test_calibration_folder_is_used_and_labelled(cylinder_obj, tmp_path, capsys)
     assert "UNCALIBRATED" not in (out / "pattern.svg").read_text()
 
 
-def test_parameters_reach_the_files(cylinder_obj, tmp_path):
+def test_parameters_reach_the_files(cylinder_obj, tmp_path, capsys):
     out = tmp_path / "out"
     # free ends (--tie-grid-mm 0): every dash keeps L exactly
     assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--L-mm", "250", "--mu1-mm", "300",
@@ -80,6 +80,8 @@ def test_parameters_reach_the_files(cylinder_obj, tmp_path):
     p = doc["parameters"]
     assert (p["L_mm"], p["mu1_mm"], p["mu2_mm"], p["margin_mm"]) == (250.0, 300.0, 150.0, 40.0)
     assert p["face_metric"] is True and doc["report"]["metric"] == {"face": "flat", "min_ratio": 1.0}
+    # L = 250 mm is not the (paper) calibration's 300 mm: the summary says the lengths are extrapolated
+    assert "warning: L = 250 mm differs from the calibration's L = 300 mm" in capsys.readouterr().out
     for d in doc["dashes"]:
         assert d["L_mm"] == pytest.approx(250.0, abs=0.01)
         poly = np.array(d["polyline_mm"])
