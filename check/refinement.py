@@ -471,5 +471,30 @@ def refined_design(design, l_real, dropped, flagged):
     n_no = {fam: design.pattern.n_no_string.get(fam, 0) + n_drop[fam] for fam in ("k1", "k2")}
     notes = design.pattern.notes + ((f"refinement dropped {sum(n_drop.values())} strings that reached their "
                                      f"flat span",) if any(dropped) else ())
-    pattern = dataclasses.replace(design.pattern, strings=tuple(new), n_no_string=n_no, notes=notes)
+    coverage = design.pattern.coverage
+    if any(dropped):
+        coverage, more = _coverage_after(design, tuple(new))
+        notes += more
+    pattern = dataclasses.replace(design.pattern, strings=tuple(new), n_no_string=n_no, notes=notes,
+                                  coverage=coverage)
     return dataclasses.replace(design, pattern=pattern)
+
+
+def _coverage_after(design, strings):
+    """The pattern's coverage (mm, design.coverage) with only ``strings`` left, and notes.
+
+    It needs the curvature field and the stripes, which a design read from its folder
+    does not keep: then the coverage is None (not known) and a note says why.
+    """
+    if design.mfield is None or design.stripes is None:
+        return None, ("the coverage of the refined pattern is not known: the design was read from its folder, "
+                      "which keeps no curvature field (design it again with --refine to get it)",)
+    from design.coverage import pattern_coverage
+    from design.tie_grid import snap_dashes
+
+    m, params = design.mattress, design.params
+    sp = params.stripe_params(params.L)
+    dashes, _ = snap_dashes(design.stripes.dashes, grid=params.tie_grid, width=m.width, height=m.height)
+    cover = pattern_coverage(design.mfield, strings, dashes, design.approx.uv, width=m.width, height=m.height,
+                             kappa_min=params.kappa_min, L=params.L, mu2=sp.mu2, margin=sp.margin)
+    return cover.summary_mm(), tuple(f"after the refinement: {n}" for n in cover.notes())

@@ -216,3 +216,39 @@ def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
     fresh = inflate(cmesh, s)
     assert start.converged and start.n_iter < fresh.n_iter
     assert np.max(np.abs(start.xyz - fresh.xyz)) < 1e-6     # m: the same equilibrium
+
+
+def test_dropping_strings_recomputes_the_coverage(tmp_path):
+    """A refined pattern that lost strings reports its own coverage (in memory), or says it is not known
+    (a design read from its folder keeps no curvature field)."""
+    from check.refinement import refined_design
+    from design.pipeline import DesignParams, design
+    from design.presets import preset
+
+    target, mattress = preset("vault1")
+    d = design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
+    strings = d.pattern.strings
+    fam = np.array([s.dash.family for s in strings])
+    line = np.array([s.dash.line for s in strings])
+    # drop every k1 string of the three middle lines: a band with no k1 string
+    k1_lines = np.unique(line[fam == "k1"])
+    mid = k1_lines[len(k1_lines) // 2 - 1: len(k1_lines) // 2 + 2]
+    dropped = (fam == "k1") & np.isin(line, mid)
+    assert dropped.any()
+    l_real = np.array([s.l_median for s in strings])
+    r = refined_design(d, l_real, dropped, np.zeros(len(strings), bool))
+    before, after = d.pattern.coverage["k1"], r.pattern.coverage["k1"]
+    # the dropped dashes leave a band the design traced but no longer strings (a weak band; measured
+    # 57.8 -> 114.5 mm against the 80 mm limit, gap p95 89.9 -> 124.4 mm)
+    assert after["gap_p95_mm"] > before["gap_p95_mm"] and after["gap_max_mm"] >= before["gap_max_mm"]
+    assert after["weak_band_max_mm"] > after["limit_mm"] >= before["weak_band_max_mm"]
+    assert r.pattern.coverage["k2"] == d.pattern.coverage["k2"]      # k2 strings untouched
+    assert any(n.startswith("after the refinement:") for n in r.pattern.notes)
+    # from the folder: not known, and said
+    write_design(d, tmp_path / "d")
+    back = read_design(tmp_path / "d")
+    rb = refined_design(back, l_real, dropped, np.zeros(len(strings), bool))
+    assert rb.pattern.coverage is None and any("coverage of the refined pattern is not known" in n
+                                               for n in rb.pattern.notes)
+    write_design(rb, tmp_path / "rb")                                 # a null coverage is a valid file
+    assert read_design(tmp_path / "rb").pattern.coverage is None
