@@ -45,8 +45,8 @@ from designed_preset import designed_preset  # noqa: E402
 
 
 def main(argv=None) -> int:
-    from check.compare import deviation, length_keeping_face
-    from check.inflation_check import design_strings
+    from check.compare import deviation
+    from check.inflation_check import design_strings, named_face
     from check.monte_carlo import draw, quantile_se
     from inflation.mesh import build_mattress_mesh
     from inflation.model import Parameters
@@ -85,8 +85,7 @@ def main(argv=None) -> int:
     t_two = time.perf_counter() - t0
     same = all(a.xyz.tobytes() == b.xyz.tobytes() == c.xyz.tobytes() for a, b, c in zip(direct, one, two))
 
-    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(base.b - base.a, axis=1)
-    face = length_keeping_face(share, base.top)
+    face = named_face(design, base)
     rms = np.array([deviation(r, design.approx.xyz, design.approx.uv, face).rms
                     for r in direct]) / MM
     se95 = quantile_se(rms, 0.95, seed=0)

@@ -6,9 +6,10 @@ of :func:`design.design_io.read_design`); it builds the double-layer mesh,
 inflates it three times (strings at their median, lo95 and hi95 lengths,
 each simulated at l + 2Δ with Δ the calibration's posterior median, or through
 the calibrated length map with ``calibrated_map=True``: :mod:`check.length_map`) and
-compares each result with Ŝ on the named face (:func:`check.compare.length_keeping_face`:
-the face opposite the larger share of bending |κ| × span, the face that keeps Ω's lengths as Ŝ
-does), with the other faces for reference. SI units.
+compares each result with Ŝ on the named face (:func:`named_face`: the face
+whose metric Ŝ was relaxed in, else the face opposite the larger share of
+bending |κ| × span, the face that keeps Ω's lengths as Ŝ does), with the
+other faces for reference. SI units.
 
 With ``samples=K`` it also inflates K Monte-Carlo samples of the string lengths
 (:func:`check.monte_carlo.draw`: the posterior of (Δ, d, σ) and each string's own
@@ -35,7 +36,7 @@ from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
 from inflation.strings import StringSet, check_resolution
 
-__all__ = ["CheckRun", "DesignCheck", "check", "design_strings", "LENGTH_KEYS"]
+__all__ = ["CheckRun", "DesignCheck", "check", "design_strings", "named_face", "LENGTH_KEYS"]
 
 log = logging.getLogger(__name__)
 
@@ -133,6 +134,34 @@ class DesignCheck:
         return all(r.inflation.converged for r in self.runs.values())
 
 
+def named_face(design, strings: StringSet) -> str:
+    """The face Ŝ stands for: the one whose metric Ŝ was relaxed in, else the face opposite the strings.
+
+    A design whose Ŝ took a face's metric (``report.metric["face"]``, design.face_metric)
+    names that face, so the design and the check speak of one surface; otherwise the
+    face opposite the larger share of bending (:func:`check.compare.length_keeping_face`:
+    each string's |κ| times its span, the string face shortening by about |κ| d per unit
+    length).
+
+    Parameters
+    ----------
+    design : design.pipeline.DesignResult
+    strings : inflation.strings.StringSet
+        The design's strings (:func:`design_strings`).
+
+    Returns
+    -------
+    str
+        ``"top"`` or ``"bottom"``.
+    """
+    report = design.approx.report
+    face = None if report is None else report.metric.get("face")
+    if face in ("top", "bottom"):
+        return face
+    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(strings.b - strings.a, axis=1)
+    return length_keeping_face(share, strings.top)
+
+
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
           strict: bool = False, workers: int = 1, scheduler: str | None = None, surface: str = "auto",
           calibrated_map: bool = False, lengths=None, samples: int = 0, seed: int = 0,
@@ -157,8 +186,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     scheduler : str, optional
         Address of an existing Dask scheduler for the runs (:mod:`inflation.executor`).
     surface : {"auto", "top", "bottom", "mid"}
-        The face compared with Ŝ; ``"auto"``: the length-keeping face
-        (:func:`~check.compare.length_keeping_face`).
+        The face compared with Ŝ; ``"auto"``: the named face (:func:`named_face`).
     calibrated_map : bool
         Simulate each real length at the rest length of the calibrated length map
         (:func:`~check.length_map.length_map` with ``calibrated=True``, built at this
@@ -198,9 +226,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     inflations, mc_runs = inflations[:len(which_runs)], inflations[len(which_runs):]
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
-    # each string's share of the bending: the string face shortens by about |kappa| d per unit length
-    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(b - a, axis=1)
-    named = length_keeping_face(share, string_sets[0].top) if surface == "auto" else surface
+    named = named_face(design, string_sets[0]) if surface == "auto" else surface
     free = np.where(string_sets[0].top, "bottom", "top")
     runs = {}
     for which, inf in zip(which_runs, inflations):

@@ -3,7 +3,7 @@
 The open-loop lengths come from Equation 3 and the curvature under each
 dash alone; neighbouring strings interact, so :func:`refine` adjusts all the
 simulated rest lengths l* together. Objective: the mean squared distance of
-the named face (the check's face, :func:`check.compare.length_keeping_face`)
+the named face (the check's face, :func:`check.inflation_check.named_face`)
 from Ŝ after rigid alignment (:mod:`check.refine_objective`) plus a mild
 Tikhonov term ``alpha · mean((l* - l*_open)²)``: strings that barely move the
 named face (slack ones, or ones whose effect other strings can replace) stay
@@ -54,8 +54,8 @@ from scipy.optimize import lsq_linear
 
 from airmat.errors import AirmatError, InputError
 from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
-from check.compare import Deviation, deviation, length_keeping_face
-from check.inflation_check import design_strings
+from check.compare import Deviation, deviation
+from check.inflation_check import design_strings, named_face
 from check.length_map import length_map
 from check.refine_objective import face_fit, face_operator
 from inflation.assembly import build_assembler
@@ -284,8 +284,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     strings = design_strings(design, "median")
     mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
                                resolution=resolution)
-    share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(strings.b - strings.a, axis=1)
-    named = length_keeping_face(share, strings.top) if surface == "auto" else surface
+    named = named_face(design, strings) if surface == "auto" else surface
     ti = time.perf_counter()
     first = inflate(mesh, strings, params=params, tol=tol, keep_levels=True)
     t_inflate = time.perf_counter() - ti
