@@ -50,14 +50,15 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from airmat.errors import AirmatError, InputError
 from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
 from check.compare import Deviation, deviation
 from check.inflation_check import design_strings, named_face
 from check.length_map import length_map
+from check.damped_step import damped_step, qr_reduce
 from check.refine_objective import face_fit, face_operator
+from check.refined_design import REFINE_FLAG, refined_design
 from inflation.assembly import build_assembler
 from inflation.energy import block_pattern
 from inflation.mesh import build_mattress_mesh
@@ -70,9 +71,6 @@ from inflation.strings import check_resolution
 __all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
 log = logging.getLogger(__name__)
-
-#: flag of a string whose refined length hit the shortest a tie allows
-REFINE_FLAG = "refine_at_shortest"
 
 
 @dataclass(frozen=True)
@@ -363,10 +361,10 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
         a = np.vstack([jac, w * np.eye(k)])
         r = np.concatenate([fit.residual, w * (l - l_reg)])
         scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
-        reduced = _reduce(a, r)
+        reduced = qr_reduce(a, r)
         accepted = False
         for _ in range(8):
-            step = _damped_step(*reduced, scale, lam, lo - l, hi - l)
+            step = damped_step(*reduced, scale, lam, lo - l, hi - l)
             predicted = float(r @ r - np.sum((r + a @ step) ** 2))
             if np.max(np.abs(step)) < xtol or predicted <= 0:
                 converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
@@ -399,101 +397,3 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
         it += 1
     return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
             "objective_before": f_start, "objective_after": f}
-
-
-def _reduce(a, r):
-    """The thin QR reduction of the linearized least squares ``|a s + r|²``: ``(R, Qᵀr)``.
-
-    ``|a s + r|² = |R s + Qᵀr|² + |r|² - |Qᵀr|²`` for ``a = QR``, so every damped subproblem
-    of an iteration is solved on the k × k ``R`` instead of the (3N + k) × k ``a`` (on the
-    large mattress the tall problem made each ``lsq_linear`` call take seconds).
-
-    Parameters
-    ----------
-    a : ndarray of shape (m, k)
-    r : ndarray of shape (m,)
-
-    Returns
-    -------
-    tuple of (ndarray of shape (k, k), ndarray of shape (k,))
-    """
-    q, rr = np.linalg.qr(a)
-    return rr, q.T @ r
-
-
-def _damped_step(rr, qtr, scale, lam, lower, upper):
-    """The bounded Levenberg–Marquardt step: argmin ``|R s + Qᵀr|² + lam |scale · s|²``, ``lower <= s <= upper``.
-
-    Parameters
-    ----------
-    rr, qtr : ndarray of shape (k, k), (k,)
-        From :func:`_reduce`.
-    scale : ndarray of shape (k,)
-        Column norms of the tall matrix (the damping's scaling).
-    lam : float
-    lower, upper : ndarray of shape (k,)
-        Bounds of the step (m).
-
-    Returns
-    -------
-    ndarray of shape (k,)
-    """
-    k = len(scale)
-    aug = np.vstack([rr, np.sqrt(lam) * np.diag(scale)])
-    return lsq_linear(aug, -np.concatenate([qtr, np.zeros(k)]), bounds=(lower, upper)).x
-
-
-def refined_design(design, l_real, dropped, flagged):
-    """The design with new real median lengths (lo95 / hi95 shifted alike), dropped strings removed.
-
-    Parameters
-    ----------
-    design : design.pipeline.DesignResult
-    l_real : ndarray of shape (k,)
-        New real median length of each string (m).
-    dropped, flagged : ndarray of shape (k,) of bool
-
-    Returns
-    -------
-    design.pipeline.DesignResult
-    """
-    new = []
-    for s, l, drop, flag in zip(design.pattern.strings, l_real, dropped, flagged):
-        if drop:
-            continue
-        shift = float(l) - s.l_median
-        flags = s.flags + ((REFINE_FLAG,) if flag and REFINE_FLAG not in s.flags else ())
-        new.append(dataclasses.replace(s, l_median=float(l), l_lo95=s.l_lo95 + shift, l_hi95=s.l_hi95 + shift,
-                                       flags=flags))
-    n_drop = {fam: sum(1 for s, d in zip(design.pattern.strings, dropped) if d and s.dash.family == fam)
-              for fam in ("k1", "k2")}
-    n_no = {fam: design.pattern.n_no_string.get(fam, 0) + n_drop[fam] for fam in ("k1", "k2")}
-    notes = design.pattern.notes + ((f"refinement dropped {sum(n_drop.values())} strings that reached their "
-                                     f"flat span",) if any(dropped) else ())
-    coverage = design.pattern.coverage
-    if any(dropped):
-        coverage, more = _coverage_after(design, tuple(new))
-        notes += more
-    pattern = dataclasses.replace(design.pattern, strings=tuple(new), n_no_string=n_no, notes=notes,
-                                  coverage=coverage)
-    return dataclasses.replace(design, pattern=pattern)
-
-
-def _coverage_after(design, strings):
-    """The pattern's coverage (mm, design.coverage) with only ``strings`` left, and notes.
-
-    It needs the curvature field and the stripes, which a design read from its folder
-    does not keep: then the coverage is None (not known) and a note says why.
-    """
-    if design.mfield is None or design.stripes is None:
-        return None, ("the coverage of the refined pattern is not known: the design was read from its folder, "
-                      "which keeps no curvature field (design it again with --refine to get it)",)
-    from design.coverage import pattern_coverage
-    from design.tie_grid import snap_dashes
-
-    m, params = design.mattress, design.params
-    sp = params.stripe_params(params.L)
-    dashes, _ = snap_dashes(design.stripes.dashes, grid=params.tie_grid, width=m.width, height=m.height)
-    cover = pattern_coverage(design.mfield, strings, dashes, design.approx.uv, width=m.width, height=m.height,
-                             kappa_min=params.kappa_min, L=params.L, mu2=sp.mu2, margin=sp.margin)
-    return cover.summary_mm(), tuple(f"after the refinement: {n}" for n in cover.notes())

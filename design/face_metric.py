@@ -171,7 +171,7 @@ def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_mi
 
 def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa_min: float = 0.25,
                          kappa_max: float = np.inf, margin: float = 0.0, rounds: int = ROUNDS,
-                         curvature_radius: float = 2.5, k_a1: float = 1.0,
+                         curvature=None, curvature_radius: float = 2.5, k_a1: float = 1.0,
                          k_a2: float = 0.2, k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7,
                          max_iter: int = 1000):
     """Relax Ŝ again in its named face's metric (a few rounds, each from the last).
@@ -194,6 +194,8 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
         Dashes stay this far inside Ω's edge (m) (:func:`face_metric`).
     rounds : int
         Relaxations in the metric, each with the metric of the last Ŝ's curvature.
+    curvature : design.curvature.PrincipalCurvature, optional
+        Of ``relax.xyz``, if already computed (it is then not computed again).
     curvature_radius : float
         Neighbourhood of the curvature fit (mean edge lengths), as for Ŝ's curvature.
     k_a1, k_a2, k_a3, tol, stall, max_iter
@@ -212,7 +214,7 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
     from design.relax import relax_from
 
     x = relax.xyz
-    curv = principal_curvature(x, faces, radius=curvature_radius)
+    curv = principal_curvature(x, faces, radius=curvature_radius) if curvature is None else curvature
     metric = face_metric(x, uv, faces, curv.kappa, curv.directions, thickness=thickness, kappa_min=kappa_min,
                          kappa_max=kappa_max, margin=margin)
     if metric.flat:

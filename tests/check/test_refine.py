@@ -182,13 +182,13 @@ def test_the_reduced_damped_step_is_the_tall_problems_step():
     # the k × k reduction (thin QR) gives the bounded Levenberg–Marquardt step of the (3N + k) × k problem
     from scipy.optimize import lsq_linear
 
-    from check.refinement import _damped_step, _reduce
+    from check.damped_step import damped_step, qr_reduce
     rng = np.random.default_rng(3)
     a, r = rng.normal(size=(400, 15)), rng.normal(size=400)
     scale = np.linalg.norm(a, axis=0)
     lower, upper = -0.04 * np.ones(15), 0.05 * np.ones(15)
     for lam in (1e-3, 0.3, 30.0):
-        got = _damped_step(*_reduce(a, r), scale, lam, lower, upper)
+        got = damped_step(*qr_reduce(a, r), scale, lam, lower, upper)
         tall = lsq_linear(np.vstack([a, np.sqrt(lam) * np.diag(scale)]), -np.concatenate([r, np.zeros(15)]),
                           bounds=(lower, upper)).x
         np.testing.assert_allclose(got, tall, atol=1e-9)
@@ -221,7 +221,7 @@ def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
 def test_dropping_strings_recomputes_the_coverage(tmp_path):
     """A refined pattern that lost strings reports its own coverage (in memory), or says it is not known
     (a design read from its folder keeps no curvature field)."""
-    from check.refinement import refined_design
+    from check.refined_design import refined_design
     from design.pipeline import DesignParams, design
     from design.presets import preset
 
