@@ -37,7 +37,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", nargs="+", default=["vault1"], help=f"names, or all ({', '.join(PRESETS)})")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
-    ap.add_argument("--max-iter", type=int, default=15)
+    ap.add_argument("--max-iter", type=int, default=20)
     ap.add_argument("--coarsest-mm", type=float, nargs="+", default=[40.0],
                     help="coarsest mesh of the two-level scheme; 0: every iteration at the resolution")
     args = ap.parse_args(argv)

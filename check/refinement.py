@@ -16,10 +16,13 @@ Jacobian of the face is ``P dx/dl*`` with ``dx/dl* = -H⁻¹ ∂g/∂l*``
 (:mod:`check.adjoint`: one factorization of the Newton Hessian at each
 accepted equilibrium, one back-substitution per string); each trial step's
 equilibrium starts from the last one moved by the first-order predictor
-(a few Newton steps, never from the flat mattress). The damped subproblems
-of an iteration are solved on the k × k factor R of one thin QR of the
-stacked Jacobian (the same steps as on the tall matrix, in a fraction of
-the time on the large mattress). Bounds: from the
+(a few Newton steps, never from the flat mattress; a trial that fails
+leaves the Newton shift where the last equilibrium had it). The damped
+subproblems of an iteration are solved on the k × k Cholesky factor of the
+stacked Jacobian's Gram matrix (:mod:`check.damped_step`: the same steps as
+on the tall matrix, in a fraction of the time on the large mattress), and a
+trial's model rebuilds only the strings' term
+(:func:`inflation.model.with_strings`). Bounds: from the
 shortest a tie allows (real l = 0, through the length map) to the string's
 flat span (no bend). Stopping rule: over an accepted step the model
 predicted well (ρ > 0.25), a decrease of the RMS below ``rms_tol`` or a
@@ -56,13 +59,13 @@ from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivat
 from check.compare import Deviation, deviation
 from check.inflation_check import design_strings, named_face
 from check.length_map import length_map
-from check.damped_step import damped_step, qr_reduce
+from check.damped_step import damped_step, reduce_least_squares
 from check.refine_objective import face_fit, face_operator
 from check.refined_design import REFINE_FLAG, refined_design
 from inflation.assembly import build_assembler
 from inflation.energy import block_pattern
 from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters, build_model
+from inflation.model import Parameters, build_model, with_strings
 from inflation.prolong import prolong
 from inflation.simulate import inflate
 from inflation.solver import NewtonSystem, rigid_pins, solve
@@ -71,6 +74,11 @@ from inflation.strings import check_resolution
 __all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
 log = logging.getLogger(__name__)
+
+#: the damping is divided by this after a step its model predicted well (rho > 0.75)
+LAM_DOWN = 3.0
+#: Newton iterations a trial equilibrium may take before the trial counts as failed
+TRIAL_NEWTON = 50
 
 
 @dataclass(frozen=True)
@@ -153,6 +161,7 @@ class _Problem:
     approx_xyz: np.ndarray
     tol: float
     max_newton: int
+    base: object
     offset: np.ndarray | None = None
 
     def fit(self, x):
@@ -160,18 +169,22 @@ class _Problem:
         return face_fit(self.p, x, self.approx_xyz, self.offset)
 
     def model(self, rest):
-        return build_model(self.mesh, dataclasses.replace(self.strings, rest=rest), self.params)
+        return with_strings(self.base, self.mesh, dataclasses.replace(self.strings, rest=rest), self.params)
 
     def equilibrium(self, rest, x0):
         """Solve from ``x0`` on the final mesh; None when it does not converge."""
+        hint = self.system.hint_rel
         try:
             r = solve(self.model(rest), x0, fixed_dofs=self.fixed, tol=self.tol, max_iter=self.max_newton,
                       max_move=0.5 * float(np.mean(self.mesh.spacing)), assembler=self.asm,
                       linear_system=self.system, desc="refine")
         except AirmatError:
+            r = None
+        log.debug("trial equilibrium: %s", "failed" if r is None else f"{r.n_iter} Newton iterations, {r.message}")
+        if r is None or not r.converged:
+            self.system.hint_rel = hint      # a failed trial's large shifts must not slow the next one
             return None
-        log.debug("trial equilibrium: %d Newton iterations, %s", r.n_iter, r.message)
-        return r if r.converged else None
+        return r
 
     def jacobian(self, rest, x):
         """The (3N, k) Jacobian of the face fit's residual with respect to l*, and dx/dl* (3n, k)."""
@@ -188,7 +201,7 @@ def _problem(mesh, strings, params, design, named, tol) -> _Problem:
     model0 = build_model(mesh, strings, params)
     asm = build_assembler(block_pattern(model0), model0.n_vertices, fixed)
     return _Problem(mesh, strings, params, fixed, asm, NewtonSystem(groups=asm.free // 3),
-                    face_operator(mesh, design.approx.uv, named), design.approx.xyz, tol, 50)
+                    face_operator(mesh, design.approx.uv, named), design.approx.xyz, tol, TRIAL_NEWTON, model0)
 
 
 def _coarse_start(cprob: _Problem, first, strings, params, tol):
@@ -235,7 +248,7 @@ def check_refinable(design, resolution: float) -> None:
 
 
 def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-2,
-           max_iter: int = 15, ftol: float = 2e-3, xtol: float = 1e-5, rms_tol: float = 5e-5,
+           max_iter: int = 20, ftol: float = 2e-3, xtol: float = 1e-5, rms_tol: float = 5e-5,
            tol: float = 1e-6, trial_tol: float = 1e-4, coarsest: float = 0.04, fine_iter: int = 0,
            surface: str = "auto") -> Refinement:
     """Adjust the strings' lengths so that the inflated named face lands on Ŝ (see the module docstring).
@@ -361,7 +374,7 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
         a = np.vstack([jac, w * np.eye(k)])
         r = np.concatenate([fit.residual, w * (l - l_reg)])
         scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
-        reduced = qr_reduce(a, r)
+        reduced = reduce_least_squares(a, r)
         accepted = False
         for _ in range(8):
             step = damped_step(*reduced, scale, lam, lo - l, hi - l)
@@ -380,7 +393,7 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
                 if rho > 1e-3:
                     decrease, drms = (f - f_new) / f, np.sqrt(f) - np.sqrt(f_new)
                     l, x, fit, f, accepted = l + step, eq.xyz, fit_new, f_new, True
-                    lam = lam / 3.0 if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
+                    lam = lam / LAM_DOWN if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
                     log.debug("refine iteration %d: objective %.4g mm², RMS %.2f mm, rho %.2f", it + 1,
                               f * 1e6, np.sqrt(fit.objective) * 1e3, rho)
                     if rho > 0.25 and (decrease < ftol or drms < rms_tol):   # a small decrease the model foresaw

@@ -42,7 +42,7 @@ deviation at p = 1 / 2 / 4 kPa; tested).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -50,7 +50,7 @@ from inflation.energy import Model, Springs, smoothing_matrix
 from inflation.mesh import MattressMesh
 from inflation.strings import StringSet, attach_strings, internal_strings
 
-__all__ = ["Parameters", "build_model", "stiffnesses"]
+__all__ = ["Parameters", "build_model", "stiffnesses", "with_strings"]
 
 
 @dataclass(frozen=True)
@@ -124,9 +124,35 @@ def build_model(mesh: MattressMesh, strings: StringSet | None, params: Parameter
               internal_strings(mesh, stiffness=k["k3"], every=params.pin_every,
                                compression=params.pin_compression, smooth=params.clamp_width)]
     if strings is not None and len(strings):
-        groups.append(attach_strings(mesh, strings,
-                                     stiffness=k["EA4"] / np.maximum(strings.rest, mesh.thickness),
-                                     smooth=params.clamp_width))
+        groups.append(_string_springs(mesh, strings, params, k))
     q = smoothing_matrix(mesh.uv[mesh.top], mesh.grid_faces, mesh.top, mesh.bottom, mesh.n_vertices, k["k5"])
     return Model(n_vertices=mesh.n_vertices, faces=mesh.faces, springs=tuple(groups),
                  pressure=float(params.pressure), smoothing=q)
+
+
+def _string_springs(mesh: MattressMesh, strings: StringSet, params: Parameters, k: dict):
+    """Term B4: the external strings, of axial stiffness EA4 / l* each."""
+    return attach_strings(mesh, strings, stiffness=k["EA4"] / np.maximum(strings.rest, mesh.thickness),
+                          smooth=params.clamp_width)
+
+
+def with_strings(model: Model, mesh: MattressMesh, strings: StringSet, params: Parameters = Parameters()) -> Model:
+    """``model`` (built by :func:`build_model` on ``mesh`` with strings) with other external strings.
+
+    The same as ``build_model(mesh, strings, params)``, but only term B4 is rebuilt: what a
+    refinement needs at every trial of the rest lengths (the smoothing matrix alone costs
+    tens of ms on the large mattress).
+
+    Parameters
+    ----------
+    model : Model
+        Built on ``mesh`` with ``params`` and a non-empty string set.
+    mesh : MattressMesh
+    strings : StringSet
+        The new strings (rest lengths l*, m).
+    params : Parameters
+    """
+    if len(model.springs) < 3 or model.springs[-1].name != "B4":
+        raise ValueError("with_strings: the model has no external strings to replace")
+    return replace(model, springs=model.springs[:-1] + (_string_springs(mesh, strings, params,
+                                                                         stiffnesses(mesh, params)),))

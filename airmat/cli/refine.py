@@ -16,7 +16,7 @@ def add_parser(sub, parents):
     p.add_argument("--resolution-mm", type=float, default=20.0,
                    help="mesh edge length of the inflations (default 20); 'airmat inflate' at the same "
                         "resolution reproduces the promised deviation")
-    p.add_argument("--max-iter", type=int, default=15, help="Gauss-Newton iterations (default 15)")
+    p.add_argument("--max-iter", type=int, default=20, help="Gauss-Newton iterations (default 20)")
     p.add_argument("--single-level", action="store_true",
                    help="run every Gauss-Newton iteration at --resolution-mm (slower, closer: vault1 7.0 mm "
                         "at 12x one inflation instead of 8.0 mm at 6.5x); default: on twice that mesh")

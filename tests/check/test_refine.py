@@ -43,8 +43,21 @@ def _problem(design, tol=1e-11):
     fixed = rigid_pins(mesh.uv, mesh.top)
     asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
     prob = _Problem(mesh, s, Parameters(), fixed, asm, NewtonSystem(groups=asm.free // 3),
-                    face_operator(mesh, design.approx.uv, "top"), design.approx.xyz, tol, 50)
+                    face_operator(mesh, design.approx.uv, "top"), design.approx.xyz, tol, 50, model)
     return prob, s, inflate(mesh, s, tol=tol)
+
+
+def test_a_failed_trial_leaves_the_newton_shift_as_it_was(case):
+    # a trial from a wild start fails; the shift it needed must not slow the next trial
+    prob, s, inf = _problem(case, tol=1e-8)
+    prob.system.hint_rel, prob.max_newton = 1e-6, 2
+    shaken = inf.xyz + 0.002 * np.random.default_rng(0).normal(size=inf.xyz.shape)
+    assert prob.equilibrium(s.rest, shaken) is None         # needs a large shift, and more than 2 iterations
+    assert prob.system.hint_rel == 1e-6                     # (the solver itself left it at 1.0)
+    assert prob.equilibrium(s.rest, 3.0 * inf.xyz) is None  # edges stretched far beyond 50 %: raises inside
+    prob.max_newton = 50
+    eq = prob.equilibrium(s.rest, inf.xyz)
+    assert eq is not None and eq.n_iter <= 1
 
 
 def test_adjoint_gradient_and_jacobian_match_finite_differences(case):
@@ -179,21 +192,45 @@ def test_two_level_refinement_iterates_on_the_coarse_mesh_and_the_check_reproduc
 
 
 def test_the_reduced_damped_step_is_the_tall_problems_step():
-    # the k × k reduction (thin QR) gives the bounded Levenberg–Marquardt step of the (3N + k) × k problem
+    # the k × k reduction (Cholesky of the Gram matrix) gives the bounded Levenberg–Marquardt step of the
+    # (3N + k) × k problem, and the same residual for every step
     from scipy.optimize import lsq_linear
 
-    from check.damped_step import damped_step, qr_reduce
+    from check.damped_step import damped_step, reduce_least_squares
     rng = np.random.default_rng(3)
     a, r = rng.normal(size=(400, 15)), rng.normal(size=400)
     scale = np.linalg.norm(a, axis=0)
     lower, upper = -0.04 * np.ones(15), 0.05 * np.ones(15)
     for lam in (1e-3, 0.3, 30.0):
-        got = damped_step(*qr_reduce(a, r), scale, lam, lower, upper)
+        got = damped_step(*reduce_least_squares(a, r), scale, lam, lower, upper)
         tall = lsq_linear(np.vstack([a, np.sqrt(lam) * np.diag(scale)]), -np.concatenate([r, np.zeros(15)]),
                           bounds=(lower, upper)).x
         np.testing.assert_allclose(got, tall, atol=1e-9)
         if lam == 1e-3:      # the bounds bind here
             assert np.sum(np.isclose(got, lower) | np.isclose(got, upper)) >= 2
+    rr, c = reduce_least_squares(a, r)
+    assert np.allclose(np.tril(rr, -1), 0.0)
+    for s in rng.normal(size=(3, 15)):
+        assert np.sum((a @ s + r) ** 2) == pytest.approx(np.sum((rr @ s + c) ** 2) + r @ r - c @ c, rel=1e-12)
+
+
+def test_the_reduction_keeps_an_ill_conditioned_jacobians_steps():
+    # the refinement's matrix: a face Jacobian with nearly dependent columns (strings with almost the same
+    # effect) over the Tikhonov rows w I; the Gram matrix squares its condition number (~1e9 here)
+    from scipy.optimize import lsq_linear
+
+    from check.damped_step import damped_step, reduce_least_squares
+    rng = np.random.default_rng(5)
+    base = rng.normal(size=(600, 8))
+    jac = np.hstack([base, base + 1e-3 * rng.normal(size=(600, 8))])     # pairs of near-twins
+    k, w = jac.shape[1], np.sqrt(1e-2 / 16)
+    a, r = np.vstack([jac, w * np.eye(k)]), rng.normal(size=600 + k)
+    assert np.linalg.cond(a.T @ a) > 1e6
+    scale = np.linalg.norm(a, axis=0)
+    for lam in (0.0, 1e-6, 1e-2):
+        got = damped_step(*reduce_least_squares(a, r), scale, lam, -np.inf * np.ones(k), np.inf * np.ones(k))
+        tall = lsq_linear(np.vstack([a, np.sqrt(lam) * np.diag(scale)]), -np.concatenate([r, np.zeros(k)])).x
+        np.testing.assert_allclose(got, tall, atol=1e-8 * np.max(np.abs(tall)))
 
 
 def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
