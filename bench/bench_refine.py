@@ -5,6 +5,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py                  # vault1 at 20 mm (about 20 s)
     .venv/bin/python bench/bench_refine.py --presets all --resolution-mm 20
     .venv/bin/python bench/bench_refine.py --presets vault1 --coarsest-mm 40 0   # two-level vs all at 20 mm
+    .venv/bin/python bench/bench_refine.py --presets saddle --corrections 0 1    # with a defect correction
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -14,7 +15,8 @@ one inflation of the open-loop design at the same resolution and the
 verification inflation of the refined one, measured in the same run (the
 ratio refine / one inflation is the issue's target, <= 5x), strings
 dropped / flagged. ``--coarsest-mm 0`` runs every Gauss–Newton iteration at
-the resolution itself (no coarse level).
+the resolution itself (no coarse level); ``--corrections N`` allows N defect
+corrections of the coarse level (``refine(..., corrections=N)``).
 """
 
 from __future__ import annotations
@@ -40,20 +42,24 @@ def main(argv=None) -> int:
     ap.add_argument("--max-iter", type=int, default=20)
     ap.add_argument("--coarsest-mm", type=float, nargs="+", default=[40.0],
                     help="coarsest mesh of the two-level scheme; 0: every iteration at the resolution")
+    ap.add_argument("--corrections", type=int, nargs="+", default=[0],
+                    help="defect corrections of the coarse level (one row each)")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
-    print("| preset | mattress (mm) | GN mesh (mm) | open loop RMS mm (% diag) | refined RMS mm (% diag) "
+    print("| preset | mattress (mm) | GN mesh (mm) | corrections | open loop RMS mm (% diag) | refined RMS mm (% diag) "
           "| max mm before / after | iterations | converged | refine (s) | one inflation (s) "
           "| verification (s) | ratio | dropped / flagged |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names:
         design = designed_preset(name)
         m = design.mattress
-        for coarsest in args.coarsest_mm:
-            r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter, coarsest=coarsest * MM)
+        for coarsest, n in [(c, n) for c in args.coarsest_mm for n in args.corrections if c > 0 or n == 0]:
+            r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter, coarsest=coarsest * MM,
+                       corrections=n)
             b, a = r.deviation_before, r.deviation_after
             gn = r.coarse_resolution if r.coarse_resolution is not None else r.resolution
-            print(f"| {name} | {m.width / MM:.0f} × {m.height / MM:.0f} | {gn / MM:g} | {b.rms / MM:.1f} "
+            print(f"| {name} | {m.width / MM:.0f} × {m.height / MM:.0f} | {gn / MM:g} | {len(r.corrections)} "
+                  f"| {b.rms / MM:.1f} "
                   f"({b.rms_pct_diag:.2f}) | {a.rms / MM:.1f} ({a.rms_pct_diag:.2f}) | {b.max / MM:.1f} / "
                   f"{a.max / MM:.1f} | {r.iterations} | {'yes' if r.converged else 'no'} | {r.seconds:.1f} "
                   f"| {r.inflation_seconds:.1f} | {r.verification_seconds:.1f} "

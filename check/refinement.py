@@ -37,7 +37,11 @@ difference of the two meshes' faces at the open-loop lengths (so that the
 coarse objective starts where the fine one is); ``coarsest=0`` runs them
 all at the target resolution. The coarse open-loop equilibrium is the first
 inflation's own level on that mesh (its continuation passes through it)
-carried on to the full tolerance, not a second inflation.
+carried on to the full tolerance, not a second inflation. That correction
+is exact only at the open-loop lengths; ``corrections=n`` re-takes it (a
+defect correction) up to n times where the coarse iterations stop early: the
+fine mesh is solved at their lengths, from the prolonged coarse equilibrium,
+the coarse face is re-corrected there, and the iterations go on.
 
 The refined lengths are checked by a fresh inflation (the check's own path,
 flat start and ramp), which gives ``deviation_after``; if it is worse than
@@ -112,6 +116,8 @@ class Refinement:
         The named face.
     coarse_resolution : float or None
         Mesh of the Gauss–Newton iterations (m); None: all at ``resolution``.
+    corrections : tuple of float
+        The RMS distance (m) of the fine face from Ŝ at each defect correction's coarse optimum.
     """
 
     design: object
@@ -132,6 +138,7 @@ class Refinement:
     resolution: float
     surface: str
     coarse_resolution: float | None = None
+    corrections: tuple = ()
 
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
@@ -142,6 +149,7 @@ class Refinement:
                 "seconds": round(float(self.seconds), 2), "resolution_mm": round(self.resolution * 1e3, 3),
                 "coarse_resolution_mm": None if self.coarse_resolution is None
                 else round(self.coarse_resolution * 1e3, 3),
+                "defect_corrections": len(self.corrections),
                 "surface": self.surface, "deviation_before": dev(self.deviation_before),
                 "deviation_after": dev(self.deviation_after), "dropped": list(self.dropped),
                 "flagged": list(self.flagged), "message": self.message}
@@ -216,6 +224,20 @@ def _coarse_start(cprob: _Problem, first, strings, params, tol):
     return inflate(cprob.mesh, strings, params=params, tol=tol)
 
 
+def _correct(prob: _Problem, cprob: _Problem, l, x_coarse, trial_tol: float):
+    """Defect correction: the equilibrium on ``prob``'s (fine) mesh at lengths ``l``, from the prolonged coarse
+    one, and ``cprob.offset`` reset so that the coarse face fit at ``x_coarse`` is the fine one's there.
+    None (offset unchanged) when the fine solve does not converge."""
+    tol, prob.tol = prob.tol, trial_tol
+    try:
+        eq = prob.equilibrium(l, prolong(cprob.mesh, x_coarse, prob.mesh))
+    finally:
+        prob.tol = tol
+    if eq is not None:
+        cprob.offset = prob.p @ eq.xyz - cprob.p @ x_coarse
+    return eq
+
+
 def _coarse_resolution(resolution: float, span: np.ndarray, coarsest: float):
     """Twice ``resolution`` when that stays <= ``coarsest`` and leaves 4 edges along every string, else None."""
     coarse = 2.0 * resolution
@@ -250,7 +272,7 @@ def check_refinable(design, resolution: float) -> None:
 def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-2,
            max_iter: int = 20, ftol: float = 2e-3, xtol: float = 1e-5, rms_tol: float = 5e-5,
            tol: float = 1e-6, trial_tol: float = 1e-4, coarsest: float = 0.04, fine_iter: int = 0,
-           surface: str = "auto") -> Refinement:
+           corrections: int = 0, surface: str = "auto") -> Refinement:
     """Adjust the strings' lengths so that the inflated named face lands on Ŝ (see the module docstring).
 
     Parameters
@@ -277,6 +299,10 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         every string); 0 runs them all at ``resolution``.
     fine_iter : int
         Gauss–Newton iterations at ``resolution`` after the coarse ones (two-level only).
+    corrections : int
+        Defect corrections (two-level only): when the coarse iterations stop before ``max_iter``,
+        solve the fine mesh at their lengths, re-correct the coarse face by the fine one there,
+        and go on iterating on the coarse mesh; at most this many times.
     surface : {"auto", "top", "bottom", "mid"}
         The face; ``"auto"`` as the check chooses it.
 
@@ -305,6 +331,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     l_open = np.clip(strings.rest, lo, hi)
     kw = dict(alpha=alpha, ftol=ftol, xtol=xtol * float(np.mean(hi)), rms_tol=rms_tol)
     coarse = _coarse_resolution(resolution, hi, coarsest) if coarsest > 0 else None
+    fine_rms = []
     if coarse is None:
         gn = _gauss_newton(prob, l_open, l_open, first.xyz, lo, hi, max_iter=max_iter, **kw)
     else:
@@ -316,6 +343,19 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz     # the face here minus the coarse one
         cprob.tol = trial_tol
         gc = _gauss_newton(cprob, l_open, l_open, cstart.xyz, lo, hi, max_iter=max_iter - fine_iter, **kw)
+        for _ in range(corrections):
+            if gc["iterations"] >= max_iter - fine_iter:
+                break
+            eqf = _correct(prob, cprob, gc["l"], gc["x"], trial_tol)
+            if eqf is None:
+                break
+            fine_rms.append(float(np.sqrt(face_fit(prob.p, eqf.xyz, prob.approx_xyz).objective)))
+            log.debug("defect correction: the fine face %.2f mm RMS at the coarse optimum (%d Newton iterations)",
+                      fine_rms[-1] * 1e3, eqf.n_iter)
+            g2 = _gauss_newton(cprob, gc["l"], l_open, gc["x"], lo, hi,
+                               max_iter=max_iter - fine_iter - gc["iterations"], lam0=gc["lam"], **kw)
+            g2["iterations"] += gc["iterations"]
+            gc = g2
         eq = prob.equilibrium(gc["l"], prolong(cmesh, gc["x"], mesh)) if fine_iter else None
         log.debug("refinement: %d iterations on the %.0f mm mesh (%s), then here", gc["iterations"],
                   coarse * 1e3, gc["message"])
@@ -349,7 +389,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
                      dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
                      flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
                      verification_seconds=t_verify, resolution=resolution, surface=named,
-                     coarse_resolution=coarse)
+                     coarse_resolution=coarse, corrections=tuple(fine_rms))
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
              "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
              dev0.rms * 1e3, dev1.rms * 1e3)

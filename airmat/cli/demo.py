@@ -1,4 +1,4 @@
-"""`airmat demo [--out DIR]`: synth -> calibrate -> design -> inflate on embedded defaults."""
+"""`airmat demo [--out DIR]`: synth -> calibrate -> design -> refine -> inflate on embedded defaults."""
 
 from __future__ import annotations
 
@@ -24,7 +24,9 @@ def add_parser(sub, parents):
                    help="target preset to design and inflate (default vault1)")
     p.add_argument("--points", type=int, default=100_000, help="points per synthetic scan (default 100000)")
     p.add_argument("--resolution-mm", type=float, default=20.0,
-                   help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
+                   help="mesh edge length of the refinement and the inflation check (default 20, as 'airmat inflate')")
+    p.add_argument("--no-refine", dest="refine", action="store_false",
+                   help="check the open-loop string lengths, without refining them through the inflation")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
@@ -34,7 +36,7 @@ def _iv(p, unit: str, scale: float = 1.0, digits: int = 1) -> str:
             f"{p.hi95 * scale:.{digits}f}]")
 
 
-def summary(out: Path, cal, truth: dict, design, check, seconds: dict) -> str:
+def summary(out: Path, cal, truth: dict, design, check, seconds: dict, refinement=None) -> str:
     """A short human summary of a demo, from the objects the run holds (SI inside, mm printed)."""
     post, rep = cal.posterior, design.approx.report
     count = {}
@@ -47,7 +49,8 @@ def summary(out: Path, cal, truth: dict, design, check, seconds: dict) -> str:
                                     for k in ("lo95", "hi95") if k in runs)
     m = design.mattress
     lines = [
-        "airmat demo: synthetic scans -> calibration -> design -> inflation check",
+        "airmat demo: synthetic scans -> calibration -> design -> "
+        + ("" if refinement is None else "refinement -> ") + "inflation check",
         f"  calibration  Delta = {_iv(post.delta, 'mm', 1e3)} (truth {truth['delta_mm']:g} mm), "
         f"d = {_iv(post.d, 'mm', 1e3)} (truth {truth['d_mm']:g} mm), "
         f"sigma = {_iv(post.sigma, '1/m', digits=2)}; "
@@ -59,12 +62,21 @@ def summary(out: Path, cal, truth: dict, design, check, seconds: dict) -> str:
         f"constructible: {'yes' if rep.constructible else 'no'}",
         f"               {len(design.pattern.strings)} strings: "
         + ", ".join(f"{v} {k}" for k, v in sorted(count.items())),
+        *([] if refinement is None else [_refine_line(refinement)]),
         f"  inflation    deviation from S-hat: RMS {dev.rms * 1e3:.1f} mm ({dev.rms_pct_diag:.2f}% of the "
         f"diagonal), max {dev.max * 1e3:.1f} mm" + (env if len(runs) > 1 else ""),
         "  time         " + ", ".join(f"{k} {v:.1f} s" for k, v in seconds.items()),
         f"  files        {out}/report.html, {out}/synth, {out}/calibration, {out}/design, {out}/inflate",
     ]
     return "\n".join(lines)
+
+
+def _refine_line(r) -> str:
+    b, a = r.deviation_before, r.deviation_after
+    dropped = f", {len(r.dropped)} strings dropped" if r.dropped else ""
+    return (f"  refinement   RMS {b.rms * 1e3:.1f} -> {a.rms * 1e3:.1f} mm ({b.rms_pct_diag:.2f} -> "
+            f"{a.rms_pct_diag:.2f}% of the diagonal), {r.iterations} Gauss-Newton iterations, "
+            f"{'converged' if r.converged else 'NOT CONVERGED'}{dropped}")
 
 
 def _published(cal, staged: Path, out: Path):
@@ -82,7 +94,7 @@ def run(args) -> int:
     from airmat.atomic import check_out_dir
     from airmat.cli._exit import not_converged
     from airmat.cli.calibrate import calibration_not_converged
-    from airmat.cli.design import design_not_converged
+    from airmat.cli.design import design_not_converged, refine_not_converged
     from airmat.cli.inflate import check_not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
@@ -90,6 +102,7 @@ def run(args) -> int:
     from calib.calibration_io import write_calibration
     from calib.plots import plot_corner, plot_curve
     from check.inflation_check import check
+    from check.refinement import refine
     from check.report import write_check
     from data_synthetic.calibration_set import calibration_set
     from design.calibration_source import from_calibration
@@ -129,18 +142,27 @@ def run(args) -> int:
         source = from_calibration(cal, source=str(out / "calibration"))
         result = design(target, mattress, calibration=source, seed=args.seed, progress=False)
         result = dataclasses.replace(result, source=str(out / "design"))
-        write_design(result, tmp / "design")
         seconds["design"] = time.perf_counter() - t
+
+        refinement = None
+        if args.refine:
+            t = time.perf_counter()
+            log.info("refine: %g mm", args.resolution_mm)
+            refinement = refine(result, resolution=args.resolution_mm * MM)
+            result = refinement.design
+            seconds["refine"] = time.perf_counter() - t
+        write_design(result, tmp / "design")
 
         t = time.perf_counter()
         log.info("inflate: %g mm", args.resolution_mm)
         checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args))
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
-        text = summary(out, cal, cs.truth, result, checked, seconds)
+        text = summary(out, cal, cs.truth, result, checked, seconds, refinement)
         page_text = "\n".join(ln for ln in text.splitlines() if not ln.lstrip().startswith("time "))
         write_report(tmp, calibration=cal, design=result, check=checked, summary=page_text,
                      title=f"airmat demo: {args.preset}")
     print(text)
     return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)
+                         + (refine_not_converged(refinement) if refinement is not None else [])
                          + check_not_converged(checked))

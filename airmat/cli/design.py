@@ -56,6 +56,9 @@ def add_parser(sub, parents):
                    help="mesh edge length of the refinement's inflations (default 20)")
     p.add_argument("--refine-single-level", action="store_true",
                    help="with --refine: every Gauss-Newton iteration at --refine-resolution-mm (slower, closer)")
+    p.add_argument("--refine-defect-corrections", type=int, default=0, metavar="N",
+                   help="with --refine: re-correct the coarse mesh by the fine one up to N times where its "
+                        "iterations stop early (see 'airmat refine --defect-corrections'; default 0)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
@@ -179,6 +182,9 @@ def run(args) -> int:
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     if args.refine and not (args.refine_resolution_mm > 0):
         raise InputError(f"--refine-resolution-mm must be > 0, got {args.refine_resolution_mm!r}")
+    from airmat.cli.refine import check_corrections
+    check_corrections("--refine-defect-corrections", args.refine_defect_corrections, args.refine_single_level,
+                      "--refine-single-level")
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
                     progress=progress_enabled())
     failed = design_not_converged(result)
@@ -187,6 +193,7 @@ def run(args) -> int:
         from check.refinement import refine
 
         refinement = refine(result, resolution=args.refine_resolution_mm * MM,
+                            corrections=args.refine_defect_corrections,
                             **({"coarsest": 0.0} if args.refine_single_level else {}))
         result = refinement.design
         failed += refine_not_converged(refinement)

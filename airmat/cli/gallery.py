@@ -1,4 +1,4 @@
-"""`airmat gallery [--out DIR]`: design and inflate every preset; a Table-1-style table."""
+"""`airmat gallery [--out DIR]`: design (and refine) and inflate every preset; a Table-1-style table."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ PRESETS = ("vault1", "saddle", "dome", "vault2", "roof")
 HEADER = ("| size | model | σ (min // avg // max) | abs κ₁ (avg // max) [1/m] | abs κ₂ (avg // max) [1/m] "
           "| strings | constructible | deviation RMS // max [mm] | RMS % diag | lo95 // hi95 RMS [mm] "
           "| design + inflate [s] |")
+#: the columns --refine adds before the last one
+REFINE_COLUMNS = "| open loop RMS % diag | refine iterations |"
 
 
 def add_parser(sub, parents):
@@ -26,12 +28,24 @@ def add_parser(sub, parents):
                    help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="calibration folder (default: the paper's values, UNCALIBRATED)")
+    p.add_argument("--refine", action="store_true",
+                   help="refine each design's string lengths through the inflation (at --resolution-mm) "
+                        "before checking it; the table gives the open-loop deviation next to the refined one")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
 
-def table_row(design, check, seconds: float) -> str:
-    """One Markdown row from a DesignResult and its DesignCheck (mm and 1/m printed)."""
+def header(refine: bool) -> str:
+    """The table's header, with the refinement's columns when ``refine``."""
+    if not refine:
+        return HEADER
+    head, last = HEADER.rstrip("|").rsplit("|", 1)
+    return head + REFINE_COLUMNS + last.replace("design + inflate", "design + refine + inflate") + "|"
+
+
+def table_row(design, check, seconds: float, refinement=None) -> str:
+    """One Markdown row from a DesignResult and its DesignCheck (mm and 1/m printed); with a refinement,
+    its open-loop deviation and iterations before the time."""
     rep, runs = design.approx.report, check.runs
     dev = runs["median"].deviation
     s, k1, k2 = rep.sigma, rep.kappa1, rep.kappa2
@@ -41,7 +55,10 @@ def table_row(design, check, seconds: float) -> str:
             f"| {k1['avg']:.2f} // {k1['max']:.2f} | {k2['avg']:.2f} // {k2['max']:.2f} "
             f"| {len(design.pattern.strings)} | {'yes' if rep.constructible else 'no'} "
             f"| {dev.rms * 1e3:.1f} // {dev.max * 1e3:.1f} | {dev.rms_pct_diag:.2f} "
-            f"| {env} | {seconds:.0f} |")
+            f"| {env} |"
+            + ("" if refinement is None else f" {refinement.deviation_before.rms_pct_diag:.2f} "
+               f"| {refinement.iterations}{'' if refinement.converged else ' (not converged)'} |")
+            + f" {seconds:.0f} |")
 
 
 def run(args) -> int:
@@ -49,12 +66,13 @@ def run(args) -> int:
 
     from airmat.atomic import atomic_write_text, check_out_dir
     from airmat.cli._exit import not_converged
-    from airmat.cli.design import design_not_converged
+    from airmat.cli.design import design_not_converged, refine_not_converged
     from airmat.cli.inflate import check_not_converged
     from airmat.cli.sigint import staged
     from airmat.json_doc import dumps
     from airmat.units import MM
     from check.inflation_check import check
+    from check.refinement import refine
     from check.report import check_dict, write_check
     from design.calibration_source import load_calibration
     from design.design_io import report_dict, write_design
@@ -81,20 +99,31 @@ def run(args) -> int:
             t = time.perf_counter()
             result = design(target, mattress, calibration=calibration, seed=args.seed, progress=False)
             result = dataclasses.replace(result, source=str(out / name / "design"))
-            write_design(result, tmp / name / "design")
             t_design = time.perf_counter() - t
+            refinement, t_refine = None, 0.0
+            if args.refine:
+                t = time.perf_counter()
+                refinement = refine(result, resolution=args.resolution_mm * MM)
+                result, t_refine = refinement.design, time.perf_counter() - t
+            write_design(result, tmp / name / "design")
+            t = time.perf_counter()
             checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args))
             write_check(checked, tmp / name / "inflate")
-            seconds = {"design": t_design, "inflate": time.perf_counter() - t - t_design}
-            rows.append(table_row(result, checked, sum(seconds.values())))
+            seconds = {"design": t_design, **({"refine": t_refine} if args.refine else {}),
+                       "inflate": time.perf_counter() - t}
+            rows.append(table_row(result, checked, sum(seconds.values()), refinement))
             doc = check_dict(checked)
             results[name] = {"report": report_dict(result.approx.report), "deviation": doc["deviation"],
-                             "envelope": doc["envelope"], "converged": doc["converged"]}
+                             "envelope": doc["envelope"], "converged": doc["converged"],
+                             **({"refine": refinement.block()} if refinement is not None else {})}
             timings[name] = {k: round(v, 3) for k, v in seconds.items()}
-            what += [f"{name}: {w}" for w in design_not_converged(result) + check_not_converged(checked)]
+            what += [f"{name}: {w}" for w in design_not_converged(result)
+                     + (refine_not_converged(refinement) if refinement is not None else [])
+                     + check_not_converged(checked)]
             print(rows[-1], flush=True)
-        sep = "|" + "---|" * (HEADER.count("|") - 1)
-        table = "\n".join([HEADER, sep] + rows)
+        head = header(args.refine)
+        sep = "|" + "---|" * (head.count("|") - 1)
+        table = "\n".join([head, sep] + rows)
         atomic_write_text(tmp / "gallery.md", table + "\n")
         results["timings_s"] = timings  # the one field that differs between runs of the same inputs
         atomic_write_text(tmp / "gallery.json", dumps(results, indent=2) + "\n")

@@ -19,7 +19,11 @@ def add_parser(sub, parents):
     p.add_argument("--max-iter", type=int, default=20, help="Gauss-Newton iterations (default 20)")
     p.add_argument("--single-level", action="store_true",
                    help="run every Gauss-Newton iteration at --resolution-mm (slower, closer: vault1 7.0 mm "
-                        "at 12x one inflation instead of 8.0 mm at 6.5x); default: on twice that mesh")
+                        "at 9.4x one inflation instead of 8.0 mm at 5.3x); default: on twice that mesh")
+    p.add_argument("--defect-corrections", type=int, default=0, metavar="N",
+                   help="where the iterations on the coarse mesh stop early, solve the fine mesh at their lengths, "
+                        "re-correct the coarse one by it and go on, up to N times (default 0; the saddle: "
+                        "16.6 -> 13.9 mm at 3.8x -> 5.3x one inflation)")
     p.set_defaults(func=run)
 
 
@@ -38,10 +42,11 @@ def run(args) -> int:
         raise InputError(f"--resolution-mm must be > 0, got {args.resolution_mm!r}")
     if args.max_iter < 1:
         raise InputError(f"--max-iter must be >= 1, got {args.max_iter}")
+    check_corrections("--defect-corrections", args.defect_corrections, args.single_level, "--single-level")
     design = read_design(args.design)
     check_refinable(design, args.resolution_mm * MM)
     refinement = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
-                        **({"coarsest": 0.0} if args.single_level else {}))
+                        corrections=args.defect_corrections, **({"coarsest": 0.0} if args.single_level else {}))
     with staged(args.out) as tmp:
         write_design(refinement.design, tmp)
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
@@ -52,3 +57,11 @@ def run(args) -> int:
           f"({b['deviation_before']['rms_pct_diag']:.2f} -> {b['deviation_after']['rms_pct_diag']:.2f} % of the "
           f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}")
     return not_converged("refine", refine_not_converged(refinement))
+
+
+def check_corrections(option: str, n: int, single_level: bool, single_option: str) -> None:
+    """Refuse a negative number of defect corrections, or corrections without a coarse mesh."""
+    if n < 0:
+        raise InputError(f"{option} must be >= 0, got {n}")
+    if n and single_level:
+        raise InputError(f"{option} corrects the coarse mesh of the two-level scheme; {single_option} has none")

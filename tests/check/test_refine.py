@@ -169,6 +169,59 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     assert json.loads((one / "design.json").read_text())["refine"]["coarse_resolution_mm"] is None
 
 
+@pytest.mark.parametrize("argv, words", [
+    (["--defect-corrections", "-1"], "--defect-corrections must be >= 0, got -1"),
+    (["--defect-corrections", "1", "--single-level"], "--single-level has none"),
+])
+def test_cli_refine_bad_corrections_exit_2_and_write_nothing(case, tmp_path, capsys, argv, words):
+    src = tmp_path / "design"
+    write_design(case, src)
+    out = tmp_path / "out"
+    assert main(["refine", str(src), "--out", str(out)] + argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0] and not out.exists()
+
+
+def test_cli_design_refine_bad_corrections_exit_2_and_write_nothing(tmp_path, capsys):
+    out = tmp_path / "d"
+    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-defect-corrections", "-2",
+                 "--out", str(out)])
+    assert code == 2 and not out.exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--refine-defect-corrections must be >= 0" in err[0]
+
+
+def test_a_defect_correction_makes_the_coarse_face_fit_the_fine_one(case):
+    # after a correction at lengths l, the coarse face fit at its equilibrium is the fine face's at l
+    from check.refinement import _coarse_start, _correct, _problem as make_problem
+    from check.inflation_check import named_face
+    s = design_strings(case)
+    m = case.mattress
+    mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.02)
+    cmesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.04)
+    named = named_face(case, s)
+    prob = make_problem(mesh, s, Parameters(), case, named, 1e-6)
+    cprob = make_problem(cmesh, s, Parameters(), case, named, 1e-6)
+    first = inflate(mesh, s, tol=1e-6, keep_levels=True)
+    cstart = _coarse_start(cprob, first, s, Parameters(), 1e-6)
+    cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz
+    l = s.rest - 0.004                                        # other lengths: the open-loop offset is off there
+    ceq = cprob.equilibrium(l, cstart.xyz)
+    fine = _correct(prob, cprob, l, ceq.xyz, 1e-8)
+    assert fine is not None and fine.converged
+    assert prob.tol == 1e-6                                   # the fine problem keeps its own tolerance
+    want = face_fit(prob.p, fine.xyz, prob.approx_xyz).objective
+    assert cprob.fit(ceq.xyz).objective == pytest.approx(want, rel=1e-9)
+    # a loose stopping rule stops the coarse iterations early; one correction lets them go on, closer
+    plain = refine(case, resolution=0.02, max_iter=8, rms_tol=5e-4)
+    r = refine(case, resolution=0.02, max_iter=8, rms_tol=5e-4, corrections=1)
+    assert plain.corrections == () and plain.iterations < 8
+    assert r.design.refine["defect_corrections"] == len(r.corrections) == 1
+    assert r.iterations > plain.iterations and r.deviation_after.rms < plain.deviation_after.rms
+    c = check(r.design, resolution=0.02, envelope=False)     # and the check reproduces what it promised
+    assert c.runs["median"].deviation.rms == pytest.approx(r.deviation_after.rms, rel=1e-9)
+
+
 def test_cli_design_refine_too_coarse_exits_2_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "d"
     code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-resolution-mm", "500", "--out", str(out)])

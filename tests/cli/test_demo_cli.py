@@ -12,7 +12,7 @@ def test_demo_runs_the_whole_pipeline(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--points", "20000", "--resolution-mm", "60", "-q"]) == 0
     text = capsys.readouterr().out
-    for word in ("calibration", "Delta", "design", "vault1", "inflation", "deviation", "envelope"):
+    for word in ("calibration", "Delta", "design", "vault1", "refinement", "inflation", "deviation", "envelope"):
         assert word in text
     cal = json.loads((out / "calibration" / "calibration.json").read_text())
     truth = json.loads((out / "synth" / "truth.json").read_text())
@@ -22,7 +22,20 @@ def test_demo_runs_the_whole_pipeline(tmp_path, capsys):
     # a designed preset lands near its S-hat: the vault1 pattern covers the mattress in patches, and the
     # measured RMS deviation is ~3.4 % of the diagonal at 50 mm; 6 % allows the coarser 60 mm mesh
     assert inf["deviation"]["rms_pct_diag"] < 6.0
+    # the demo refines the lengths through the inflation, and its check reproduces what the refinement promised
+    ref = json.loads((out / "design" / "design.json").read_text())["refine"]
+    assert ref["resolution_mm"] == pytest.approx(60.0, rel=0.1)
+    assert ref["deviation_after"]["rms_mm"] <= ref["deviation_before"]["rms_mm"]
+    assert inf["deviation"]["rms_mm"] == pytest.approx(ref["deviation_after"]["rms_mm"], abs=0.011)
     page = (out / "report.html").read_text(encoding="utf-8")
     for title in ("<h2>Summary</h2>", "<h2>Calibration</h2>", "<h2>Design</h2>", "<h2>Inflation check</h2>"):
         assert title in page
     assert "UNCALIBRATED" not in page and page.count("plotly.js v") == 1
+
+
+@pytest.mark.slow
+def test_demo_no_refine_checks_the_open_loop_lengths(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--points", "20000", "--resolution-mm", "60", "--no-refine", "-q"]) == 0
+    assert "refinement" not in capsys.readouterr().out
+    assert "refine" not in json.loads((out / "design" / "design.json").read_text())

@@ -4,6 +4,8 @@ import contextlib
 import io
 import json
 
+import pytest
+
 from airmat.cli import main
 
 
@@ -20,6 +22,25 @@ def test_gallery_row_matches_the_design_and_inflation_files(tmp_path):
     assert rms == round(inflate["deviation"]["rms_mm"], 1) and mx == round(inflate["deviation"]["max_mm"], 1)
     assert 0 < rms < mx                                  # a real, non-zero deviation
     assert inflate["solver"]["converged"] is True
+
+
+def test_gallery_refine_checks_the_refined_lengths(tmp_path):
+    with contextlib.redirect_stdout(io.StringIO()):
+        code = main(["gallery", "--presets", "saddle", "--resolution-mm", "60", "--refine", "--out", str(tmp_path),
+                     "-q"])
+    assert code in (0, 3)                         # 3: the refinement ran out of iterations (said on stderr)
+    head, _, row = (tmp_path / "gallery.md").read_text().splitlines()
+    names = [c.strip() for c in head.strip("|").split("|")]
+    cells = dict(zip(names, (c.strip() for c in row.strip("|").split("|"))))
+    ref = json.loads((tmp_path / "gallery.json").read_text())["saddle"]["refine"]
+    design = json.loads((tmp_path / "saddle" / "design" / "design.json").read_text())
+    inflate = json.loads((tmp_path / "saddle" / "inflate" / "inflate.json").read_text())
+    assert design["refine"] == ref and (code == 0) is ref["converged"]
+    assert float(cells["open loop RMS % diag"]) == round(ref["deviation_before"]["rms_pct_diag"], 2)
+    assert float(cells["RMS % diag"]) == round(inflate["deviation"]["rms_pct_diag"], 2)
+    assert inflate["deviation"]["rms_mm"] == pytest.approx(ref["deviation_after"]["rms_mm"], abs=0.011)
+    assert ref["deviation_after"]["rms_mm"] < ref["deviation_before"]["rms_mm"]
+    assert cells["refine iterations"].split()[0] == str(ref["iterations"])
 
 
 def test_unknown_preset_exits_2_with_one_line(tmp_path, capsys):
