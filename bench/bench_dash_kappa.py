@@ -3,12 +3,14 @@
 Usage::
 
     .venv/bin/python bench/bench_dash_kappa.py [--presets vault1,saddle,dome,vault2,roof] [--resolution-mm 20]
+    .venv/bin/python bench/bench_dash_kappa.py --refine     # the same, at the refined lengths
 
 Each preset is designed with the defaults (paper calibration values, seed 0),
 inflated at its median lengths (``check.inflation_check.check``, no envelope)
 and, over the dashes with |κ| >= 1 1/m, the ratio realized / target is
 summarized per family: median, 10th and 90th percentiles, and the share of
-dashes within 10 %. Two measures of the realized curvature
+dashes within 10 %. ``--refine`` first refines the lengths through the inflation
+(:func:`check.refinement.refine`, defaults) and measures the refined design. Two measures of the realized curvature
 (:func:`check.compare.realized_curvature`): the turn of the face's normal
 over the dash (the check's) and the circle through its ends and middle.
 """
@@ -28,6 +30,7 @@ sys.path.insert(0, str(HERE))
 from designed_preset import designed_preset  # noqa: E402
 from check.compare import realized_curvature  # noqa: E402
 from check.inflation_check import check  # noqa: E402
+from check.refinement import refine  # noqa: E402
 
 
 def _stats(q) -> str:
@@ -39,12 +42,15 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", default="vault1,saddle,dome,vault2,roof")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
+    ap.add_argument("--refine", action="store_true", help="measure the refined designs")
     args = ap.parse_args(argv)
     print("| preset | family | dashes with \\|κ\\| ≥ 1 | turning: median | p10 – p90 | within 10 % "
           "| circle: median | p10 – p90 | within 10 % |")
     print("|---|---|---:|---:|---|---:|---:|---|---:|")
     for name in args.presets.split(","):
         d = designed_preset(name)
+        if args.refine:
+            d = refine(d, resolution=args.resolution_mm * 1e-3).design
         c = check(d, resolution=args.resolution_mm * 1e-3, envelope=False)
         run = c.runs["median"]
         strings = d.pattern.strings
