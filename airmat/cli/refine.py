@@ -23,7 +23,7 @@ def add_parser(sub, parents):
     p.add_argument("--defect-corrections", type=int, default=0, metavar="N",
                    help="where the iterations on the coarse mesh stop early, solve the fine mesh at their lengths, "
                         "re-correct the coarse one by it and go on, up to N times (default 0; the saddle: "
-                        "16.6 -> 13.9 mm at 3.8x -> 5.3x one inflation)")
+                        "16.6 -> 13.9 mm, 3.8x -> 5.6x one inflation)")
     p.set_defaults(func=run)
 
 
