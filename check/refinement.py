@@ -59,6 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import AirmatError, InputError
+from airmat.progress import progress
 from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
 from check.compare import Deviation, deviation
 from check.inflation_check import design_strings, named_face
@@ -172,6 +173,10 @@ class _Problem:
     base: object
     offset: np.ndarray | None = None
 
+    @property
+    def mesh_label(self) -> str:
+        return f"the {1e3 * float(np.max(self.mesh.spacing)):.0f} mm mesh"
+
     def fit(self, x):
         """The face fit of positions ``x`` (with the coarse-mesh correction, if any)."""
         return face_fit(self.p, x, self.approx_xyz, self.offset)
@@ -185,7 +190,7 @@ class _Problem:
         try:
             r = solve(self.model(rest), x0, fixed_dofs=self.fixed, tol=self.tol, max_iter=self.max_newton,
                       max_move=0.5 * float(np.mean(self.mesh.spacing)), assembler=self.asm,
-                      linear_system=self.system, desc="refine")
+                      linear_system=self.system, desc="trial equilibrium")
         except AirmatError:
             r = None
         log.debug("trial equilibrium: %s", "failed" if r is None else f"{r.n_iter} Newton iterations, {r.message}")
@@ -409,44 +414,47 @@ def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, fto
     fit = prob.fit(x)
     f = f_start = total(fit, l)
     lam, it, converged, message = lam0, 0, False, f"not converged after {max_iter} iterations"
-    while it < max_iter:
-        jac, dx = prob.jacobian(l, x)
-        a = np.vstack([jac, w * np.eye(k)])
-        r = np.concatenate([fit.residual, w * (l - l_reg)])
-        scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
-        reduced = reduce_least_squares(a, r)
-        accepted = False
-        for _ in range(8):
-            step = damped_step(*reduced, scale, lam, lo - l, hi - l)
-            predicted = float(r @ r - np.sum((r + a @ step) ** 2))
-            if np.max(np.abs(step)) < xtol or predicted <= 0:
-                converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
-                break
-            # first-order predictor: the equilibrium moves by dx/dl* step, then a few Newton steps
-            eq = prob.equilibrium(l + step, x + (dx @ step).reshape(x.shape))
-            log.debug("step of %.2f mm (max), predicted %.3g mm², lam %.2g: %s", 1e3 * np.max(np.abs(step)),
-                      predicted * 1e6, lam, "no equilibrium" if eq is None else f"{eq.n_iter} Newton iterations")
-            if eq is not None:
-                fit_new = prob.fit(eq.xyz)
-                f_new = total(fit_new, l + step)
-                rho = (f - f_new) / predicted
-                if rho > 1e-3:
-                    decrease, drms = (f - f_new) / f, np.sqrt(f) - np.sqrt(f_new)
-                    l, x, fit, f, accepted = l + step, eq.xyz, fit_new, f_new, True
-                    lam = lam / LAM_DOWN if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
-                    log.debug("refine iteration %d: objective %.4g mm², RMS %.2f mm, rho %.2f", it + 1,
-                              f * 1e6, np.sqrt(fit.objective) * 1e3, rho)
-                    if rho > 0.25 and (decrease < ftol or drms < rms_tol):   # a small decrease the model foresaw
-                        converged, message = True, (f"converged: the RMS fell by {drms * 1e3:.3g} mm "
-                                                    f"(< {rms_tol * 1e3:.3g}) or relatively by {decrease:.2g}")
+    with progress(total=max_iter, desc=f"refine on {prob.mesh_label}", unit="it") as bar:
+        while it < max_iter:
+            jac, dx = prob.jacobian(l, x)
+            a = np.vstack([jac, w * np.eye(k)])
+            r = np.concatenate([fit.residual, w * (l - l_reg)])
+            scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
+            reduced = reduce_least_squares(a, r)
+            accepted = False
+            for _ in range(8):
+                step = damped_step(*reduced, scale, lam, lo - l, hi - l)
+                predicted = float(r @ r - np.sum((r + a @ step) ** 2))
+                if np.max(np.abs(step)) < xtol or predicted <= 0:
+                    converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
                     break
-            lam *= 4.0
-        if converged:
-            it += int(accepted)
-            break
-        if not accepted:
-            message = "stalled: no step lowers the objective"
-            break
-        it += 1
+                # first-order predictor: the equilibrium moves by dx/dl* step, then a few Newton steps
+                eq = prob.equilibrium(l + step, x + (dx @ step).reshape(x.shape))
+                log.debug("step of %.2f mm (max), predicted %.3g mm², lam %.2g: %s", 1e3 * np.max(np.abs(step)),
+                          predicted * 1e6, lam, "no equilibrium" if eq is None else f"{eq.n_iter} Newton iterations")
+                if eq is not None:
+                    fit_new = prob.fit(eq.xyz)
+                    f_new = total(fit_new, l + step)
+                    rho = (f - f_new) / predicted
+                    if rho > 1e-3:
+                        decrease, drms = (f - f_new) / f, np.sqrt(f) - np.sqrt(f_new)
+                        l, x, fit, f, accepted = l + step, eq.xyz, fit_new, f_new, True
+                        lam = lam / LAM_DOWN if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
+                        log.debug("refine iteration %d: objective %.4g mm², RMS %.2f mm, rho %.2f", it + 1,
+                                  f * 1e6, np.sqrt(fit.objective) * 1e3, rho)
+                        bar.update(1)
+                        bar.set_postfix_str(f"RMS {np.sqrt(fit.objective) * 1e3:.2f} mm")
+                        if rho > 0.25 and (decrease < ftol or drms < rms_tol):   # a small decrease the model foresaw
+                            converged, message = True, (f"converged: the RMS fell by {drms * 1e3:.3g} mm "
+                                                        f"(< {rms_tol * 1e3:.3g}) or relatively by {decrease:.2g}")
+                        break
+                lam *= 4.0
+            if converged:
+                it += int(accepted)
+                break
+            if not accepted:
+                message = "stalled: no step lowers the objective"
+                break
+            it += 1
     return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
             "objective_before": f_start, "objective_after": f}

@@ -342,3 +342,15 @@ def test_dropping_strings_recomputes_the_coverage(tmp_path):
                                                for n in rb.pattern.notes)
     write_design(rb, tmp_path / "rb")                                 # a null coverage is a valid file
     assert read_design(tmp_path / "rb").pattern.coverage is None
+
+
+def test_the_refinement_shows_its_iterations_on_a_progress_bar(case, capsys):
+    # a bar over the Gauss–Newton iterations with the current RMS, when progress bars are on (a terminal)
+    from airmat.progress import set_progress
+    set_progress(True)
+    try:
+        r = refine(case, resolution=0.04, max_iter=2)
+    finally:
+        set_progress(None)
+    err = capsys.readouterr().err
+    assert "refine on the 40 mm mesh" in err and f"{r.iterations}/2" in err and "RMS" in err
