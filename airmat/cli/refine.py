@@ -55,7 +55,8 @@ def run(args) -> int:
     print(f"  refined in {b['iterations']} iterations, {b['seconds']:.1f} s: named face RMS "
           f"{b['deviation_before']['rms_mm']:.1f} -> {b['deviation_after']['rms_mm']:.1f} mm "
           f"({b['deviation_before']['rms_pct_diag']:.2f} -> {b['deviation_after']['rms_pct_diag']:.2f} % of the "
-          f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}")
+          f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}"
+          + (f"; {b['defect_corrections']} defect correction(s)" if b["defect_corrections"] else ""))
     return not_converged("refine", refine_not_converged(refinement))
 
 
