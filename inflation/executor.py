@@ -166,9 +166,12 @@ def local_cluster(workers: int):
         with dask.config.set({"distributed.worker.daemon": True, "logging.distributed": "critical",
                               "distributed.worker.multiprocessing-method": "spawn",
                               "distributed.nanny.pre-spawn-environ": _WORKER_ENV}):
+            # no dashboard; the scheduler's own HTTP routes on a free local port, not on 8787 (its
+            # default), which another cluster or program may hold: two runs at once must not collide
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=logging.CRITICAL,
-                                   host="127.0.0.1", worker_dashboard_address=None)
+                                   host="127.0.0.1", worker_dashboard_address=None,
+                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
     try:
         yield cluster
     finally:

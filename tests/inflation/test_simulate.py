@@ -48,3 +48,24 @@ def test_one_run_does_not_import_dask():
             "print('distributed' in sys.modules, 'dask' in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
+
+
+def test_a_local_cluster_does_not_need_port_8787(recwarn):
+    """Two runs at once (or any program on Dask's default port 8787) must not collide: the scheduler's
+    HTTP routes take a free port (it warned, and under pytest's warnings-as-errors failed, before)."""
+    import operator
+    import socket
+
+    from inflation.executor import map_shared
+
+    holder = socket.socket()
+    try:
+        try:
+            holder.bind(("127.0.0.1", 8787))
+            holder.listen(1)
+        except OSError:
+            pass                      # already held by something else: the same condition
+        assert map_shared(operator.add, 1, [1, 2], workers=2) == [2, 3]
+    finally:
+        holder.close()
+    assert not [w for w in recwarn if "already in use" in str(w.message)]
