@@ -11,7 +11,8 @@ at their open-loop length instead of drifting, and the Gauss–Newton matrix
 stays regular; ``alpha = 1e-2`` costs a 10 mm change of every string as much
 as 1 mm of RMS deviation.
 
-Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region. The
+Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region
+(:mod:`check.gauss_newton`; the trial solves in :mod:`check.trial_equilibrium`). The
 Jacobian of the face is ``P dx/dl*`` with ``dx/dl* = -H⁻¹ ∂g/∂l*``
 (:mod:`check.adjoint`: one factorization of the Newton Hessian at each
 accepted equilibrium, one back-substitution per string); each trial step's
@@ -58,32 +59,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airmat.errors import AirmatError, InputError
-from airmat.progress import progress
-from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
+from airmat.errors import InputError
 from check.compare import Deviation, deviation
+from check.gauss_newton import gauss_newton
 from check.inflation_check import design_strings, named_face
 from check.length_map import length_map
-from check.damped_step import damped_step, reduce_least_squares
-from check.refine_objective import face_fit, face_operator
+from check.refine_objective import face_fit
 from check.refined_design import REFINE_FLAG, refined_design
-from inflation.assembly import build_assembler
-from inflation.energy import block_pattern
+from check.trial_equilibrium import coarse_start, correct, make_problem
 from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters, build_model, with_strings
+from inflation.model import Parameters
 from inflation.prolong import prolong
 from inflation.simulate import inflate
-from inflation.solver import NewtonSystem, rigid_pins, solve
 from inflation.strings import check_resolution
 
 __all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
 log = logging.getLogger(__name__)
-
-#: the damping is divided by this after a step its model predicted well (rho > 0.75)
-LAM_DOWN = 3.0
-#: Newton iterations a trial equilibrium may take before the trial counts as failed
-TRIAL_NEWTON = 50
 
 
 @dataclass(frozen=True)
@@ -154,93 +146,6 @@ class Refinement:
                 "surface": self.surface, "deviation_before": dev(self.deviation_before),
                 "deviation_after": dev(self.deviation_after), "dropped": list(self.dropped),
                 "flagged": list(self.flagged), "message": self.message}
-
-
-@dataclass
-class _Problem:
-    """What every trial equilibrium shares: mesh, pins, assembler, linear solver, face operator."""
-
-    mesh: object
-    strings: object
-    params: Parameters
-    fixed: np.ndarray
-    asm: object
-    system: NewtonSystem
-    p: object
-    approx_xyz: np.ndarray
-    tol: float
-    max_newton: int
-    base: object
-    offset: np.ndarray | None = None
-
-    @property
-    def mesh_label(self) -> str:
-        return f"the {1e3 * float(np.max(self.mesh.spacing)):.0f} mm mesh"
-
-    def fit(self, x):
-        """The face fit of positions ``x`` (with the coarse-mesh correction, if any)."""
-        return face_fit(self.p, x, self.approx_xyz, self.offset)
-
-    def model(self, rest):
-        return with_strings(self.base, self.mesh, dataclasses.replace(self.strings, rest=rest), self.params)
-
-    def equilibrium(self, rest, x0):
-        """Solve from ``x0`` on the final mesh; None when it does not converge."""
-        hint = self.system.hint_rel
-        try:
-            r = solve(self.model(rest), x0, fixed_dofs=self.fixed, tol=self.tol, max_iter=self.max_newton,
-                      max_move=0.5 * float(np.mean(self.mesh.spacing)), assembler=self.asm,
-                      linear_system=self.system, desc="trial equilibrium")
-        except AirmatError:
-            r = None
-        log.debug("trial equilibrium: %s", "failed" if r is None else f"{r.n_iter} Newton iterations, {r.message}")
-        if r is None or not r.converged:
-            self.system.hint_rel = hint      # a failed trial's large shifts must not slow the next one
-            return None
-        return r
-
-    def jacobian(self, rest, x):
-        """The (3N, k) Jacobian of the face fit's residual with respect to l*, and dx/dl* (3n, k)."""
-        model = self.model(rest)
-        fac = factor_equilibrium(model, x, self.asm, self.system.chol)
-        dx = equilibrium_jacobian(fac, rest_derivative(model.springs[-1], x, self.mesh.thickness))
-        n, k = len(x), len(rest)
-        face = (self.p @ dx.reshape(n, 3 * k)).reshape(-1, 3, k)
-        return face.reshape(-1, k) / np.sqrt(self.p.shape[0]), dx
-
-
-def _problem(mesh, strings, params, design, named, tol) -> _Problem:
-    fixed = rigid_pins(mesh.uv, mesh.top)
-    model0 = build_model(mesh, strings, params)
-    asm = build_assembler(block_pattern(model0), model0.n_vertices, fixed)
-    return _Problem(mesh, strings, params, fixed, asm, NewtonSystem(groups=asm.free // 3),
-                    face_operator(mesh, design.approx.uv, named), design.approx.xyz, tol, TRIAL_NEWTON, model0)
-
-
-def _coarse_start(cprob: _Problem, first, strings, params, tol):
-    """The open-loop equilibrium on ``cprob``'s mesh: the first inflation's level on that mesh (solved
-    there to the continuation's looser tolerance) carried on to ``tol``; a fresh inflation when it has none."""
-    h = float(np.max(cprob.mesh.spacing))
-    for m, x in first.levels:
-        if m.n_vertices == cprob.mesh.n_vertices and np.isclose(float(np.max(m.spacing)), h):
-            eq = cprob.equilibrium(strings.rest, x)
-            if eq is not None:
-                return eq
-    return inflate(cprob.mesh, strings, params=params, tol=tol)
-
-
-def _correct(prob: _Problem, cprob: _Problem, l, x_coarse, trial_tol: float):
-    """Defect correction: the equilibrium on ``prob``'s (fine) mesh at lengths ``l``, from the prolonged coarse
-    one, and ``cprob.offset`` reset so that the coarse face fit at ``x_coarse`` is the fine one's there.
-    None (offset unchanged) when the fine solve does not converge."""
-    tol, prob.tol = prob.tol, trial_tol
-    try:
-        eq = prob.equilibrium(l, prolong(cprob.mesh, x_coarse, prob.mesh))
-    finally:
-        prob.tol = tol
-    if eq is not None:
-        cprob.offset = prob.p @ eq.xyz - cprob.p @ x_coarse
-    return eq
 
 
 def _coarse_resolution(resolution: float, span: np.ndarray, coarsest: float):
@@ -331,33 +236,33 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     first = inflate(mesh, strings, params=params, tol=tol, keep_levels=True)
     t_inflate = time.perf_counter() - ti
     dev0 = deviation(first, design.approx.xyz, design.approx.uv, named)
-    prob = _problem(mesh, strings, params, design, named, tol)
+    prob = make_problem(mesh, strings, params, design, named, tol)
     lo, hi = _bounds(design, strings)
     l_open = np.clip(strings.rest, lo, hi)
     kw = dict(alpha=alpha, ftol=ftol, xtol=xtol * float(np.mean(hi)), rms_tol=rms_tol)
     coarse = _coarse_resolution(resolution, hi, coarsest) if coarsest > 0 else None
     fine_rms = []
     if coarse is None:
-        gn = _gauss_newton(prob, l_open, l_open, first.xyz, lo, hi, max_iter=max_iter, **kw)
+        gn = gauss_newton(prob, l_open, l_open, first.xyz, lo, hi, max_iter=max_iter, **kw)
     else:
         # the iterations on the mesh twice as coarse (a Newton iteration ~6x cheaper), its face corrected
         # by the difference of the two meshes' faces at the open-loop lengths
         cmesh = build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=coarse)
-        cprob = _problem(cmesh, strings, params, design, named, tol)
-        cstart = _coarse_start(cprob, first, strings, params, tol)
+        cprob = make_problem(cmesh, strings, params, design, named, tol)
+        cstart = coarse_start(cprob, first, strings, params, tol)
         cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz     # the face here minus the coarse one
         cprob.tol = trial_tol
-        gc = _gauss_newton(cprob, l_open, l_open, cstart.xyz, lo, hi, max_iter=max_iter - fine_iter, **kw)
+        gc = gauss_newton(cprob, l_open, l_open, cstart.xyz, lo, hi, max_iter=max_iter - fine_iter, **kw)
         for _ in range(corrections):
             if gc["iterations"] >= max_iter - fine_iter:
                 break
-            eqf = _correct(prob, cprob, gc["l"], gc["x"], trial_tol)
+            eqf = correct(prob, cprob, gc["l"], gc["x"], trial_tol)
             if eqf is None:
                 break
             fine_rms.append(float(np.sqrt(face_fit(prob.p, eqf.xyz, prob.approx_xyz).objective)))
             log.debug("defect correction: the fine face %.2f mm RMS at the coarse optimum (%d Newton iterations)",
                       fine_rms[-1] * 1e3, eqf.n_iter)
-            g2 = _gauss_newton(cprob, gc["l"], l_open, gc["x"], lo, hi,
+            g2 = gauss_newton(cprob, gc["l"], l_open, gc["x"], lo, hi,
                                max_iter=max_iter - fine_iter - gc["iterations"], lam0=gc["lam"], **kw)
             g2["iterations"] += gc["iterations"]
             gc = g2
@@ -367,7 +272,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         if eq is None:
             gn = dict(gc)
         else:
-            gn = _gauss_newton(prob, gc["l"], l_open, eq.xyz, lo, hi, max_iter=fine_iter, lam0=gc["lam"], **kw)
+            gn = gauss_newton(prob, gc["l"], l_open, eq.xyz, lo, hi, max_iter=fine_iter, lam0=gc["lam"], **kw)
             gn["iterations"] += gc["iterations"]
     gn["objective_before"] = face_fit(prob.p, first.xyz, prob.approx_xyz).objective
     l_best, converged, message = gn["l"], gn["converged"], gn["message"]
@@ -399,62 +304,3 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
              "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
              dev0.rms * 1e3, dev1.rms * 1e3)
     return dataclasses.replace(res, design=dataclasses.replace(res.design, refine=res.block()))
-
-
-def _gauss_newton(prob: _Problem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, ftol, xtol, rms_tol,
-                  lam0=1e-3) -> dict:
-    """Bounded Levenberg–Marquardt over l* from ``l0`` (regularized toward ``l_reg``); the best lengths and how it went."""
-    k = len(l0)
-    w = np.sqrt(alpha / k)
-
-    def total(fit, l):
-        return fit.objective + w * w * float(np.sum((l - l_reg) ** 2))
-
-    l, x = np.array(l0, float), x0
-    fit = prob.fit(x)
-    f = f_start = total(fit, l)
-    lam, it, converged, message = lam0, 0, False, f"not converged after {max_iter} iterations"
-    with progress(total=max_iter, desc=f"refine on {prob.mesh_label}", unit="it") as bar:
-        while it < max_iter:
-            jac, dx = prob.jacobian(l, x)
-            a = np.vstack([jac, w * np.eye(k)])
-            r = np.concatenate([fit.residual, w * (l - l_reg)])
-            scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
-            reduced = reduce_least_squares(a, r)
-            accepted = False
-            for _ in range(8):
-                step = damped_step(*reduced, scale, lam, lo - l, hi - l)
-                predicted = float(r @ r - np.sum((r + a @ step) ** 2))
-                if np.max(np.abs(step)) < xtol or predicted <= 0:
-                    converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
-                    break
-                # first-order predictor: the equilibrium moves by dx/dl* step, then a few Newton steps
-                eq = prob.equilibrium(l + step, x + (dx @ step).reshape(x.shape))
-                log.debug("step of %.2f mm (max), predicted %.3g mm², lam %.2g: %s", 1e3 * np.max(np.abs(step)),
-                          predicted * 1e6, lam, "no equilibrium" if eq is None else f"{eq.n_iter} Newton iterations")
-                if eq is not None:
-                    fit_new = prob.fit(eq.xyz)
-                    f_new = total(fit_new, l + step)
-                    rho = (f - f_new) / predicted
-                    if rho > 1e-3:
-                        decrease, drms = (f - f_new) / f, np.sqrt(f) - np.sqrt(f_new)
-                        l, x, fit, f, accepted = l + step, eq.xyz, fit_new, f_new, True
-                        lam = lam / LAM_DOWN if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
-                        log.debug("refine iteration %d: objective %.4g mm², RMS %.2f mm, rho %.2f", it + 1,
-                                  f * 1e6, np.sqrt(fit.objective) * 1e3, rho)
-                        bar.update(1)
-                        bar.set_postfix_str(f"RMS {np.sqrt(fit.objective) * 1e3:.2f} mm")
-                        if rho > 0.25 and (decrease < ftol or drms < rms_tol):   # a small decrease the model foresaw
-                            converged, message = True, (f"converged: the RMS fell by {drms * 1e3:.3g} mm "
-                                                        f"(< {rms_tol * 1e3:.3g}) or relatively by {decrease:.2g}")
-                        break
-                lam *= 4.0
-            if converged:
-                it += int(accepted)
-                break
-            if not accepted:
-                message = "stalled: no step lowers the objective"
-                break
-            it += 1
-    return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
-            "objective_before": f_start, "objective_after": f}

@@ -164,5 +164,5 @@ def run(args) -> int:
                      title=f"airmat demo: {args.preset}")
     print(text)
     return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)
-                         + (refine_not_converged(refinement) if refinement is not None else [])
+                         + refine_not_converged(refinement)
                          + check_not_converged(checked))

@@ -205,8 +205,8 @@ def run(args) -> int:
 
 
 def refine_not_converged(refinement) -> list[str]:
-    """What did not converge in a refinement (its best lengths are written, never worse than open loop)."""
-    return [] if refinement.converged else [f"refinement: {refinement.message}"]
+    """What did not converge in a refinement, if one ran (its best lengths are written, never worse than open loop)."""
+    return [] if refinement is None or refinement.converged else [f"refinement: {refinement.message}"]
 
 
 def design_not_converged(result) -> list[str]:

@@ -118,7 +118,7 @@ def run(args) -> int:
                              **({"refine": refinement.block()} if refinement is not None else {})}
             timings[name] = {k: round(v, 3) for k, v in seconds.items()}
             what += [f"{name}: {w}" for w in design_not_converged(result)
-                     + (refine_not_converged(refinement) if refinement is not None else [])
+                     + refine_not_converged(refinement)
                      + check_not_converged(checked)]
             print(rows[-1], flush=True)
         head = header(args.refine)

@@ -16,15 +16,13 @@ from airmat.errors import InputError  # noqa: E402
 from check.adjoint import adjoint_gradient, factor_equilibrium, rest_derivative  # noqa: E402
 from check.inflation_check import check, design_strings  # noqa: E402
 from check.length_map import length_map  # noqa: E402
-from check.refine_objective import face_fit, face_operator  # noqa: E402
-from check.refinement import _Problem, refine  # noqa: E402
+from check.refine_objective import face_fit  # noqa: E402
+from check.refinement import refine  # noqa: E402
+from check.trial_equilibrium import make_problem  # noqa: E402
 from design.design_io import read_design, write_design  # noqa: E402
-from inflation.assembly import build_assembler  # noqa: E402
-from inflation.energy import block_pattern  # noqa: E402
 from inflation.mesh import build_mattress_mesh  # noqa: E402
-from inflation.model import Parameters, build_model  # noqa: E402
+from inflation.model import Parameters  # noqa: E402
 from inflation.simulate import inflate  # noqa: E402
-from inflation.solver import NewtonSystem, rigid_pins  # noqa: E402
 
 #: open-loop lengths off the true ones (all shorter: every string stays taut)
 OFF = np.array([-0.012, -0.006, -0.015])
@@ -39,11 +37,7 @@ def _problem(design, tol=1e-11):
     s = design_strings(design)
     m = design.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=RESOLUTION)
-    model = build_model(mesh, s)
-    fixed = rigid_pins(mesh.uv, mesh.top)
-    asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
-    prob = _Problem(mesh, s, Parameters(), fixed, asm, NewtonSystem(groups=asm.free // 3),
-                    face_operator(mesh, design.approx.uv, "top"), design.approx.xyz, tol, 50, model)
+    prob = make_problem(mesh, s, Parameters(), design, "top", tol)
     return prob, s, inflate(mesh, s, tol=tol)
 
 
@@ -193,7 +187,7 @@ def test_cli_design_refine_bad_corrections_exit_2_and_write_nothing(tmp_path, ca
 
 def test_a_defect_correction_makes_the_coarse_face_fit_the_fine_one(case):
     # after a correction at lengths l, the coarse face fit at its equilibrium is the fine face's at l
-    from check.refinement import _coarse_start, _correct, _problem as make_problem
+    from check.trial_equilibrium import coarse_start, correct
     from check.inflation_check import named_face
     s = design_strings(case)
     m = case.mattress
@@ -203,11 +197,11 @@ def test_a_defect_correction_makes_the_coarse_face_fit_the_fine_one(case):
     prob = make_problem(mesh, s, Parameters(), case, named, 1e-6)
     cprob = make_problem(cmesh, s, Parameters(), case, named, 1e-6)
     first = inflate(mesh, s, tol=1e-6, keep_levels=True)
-    cstart = _coarse_start(cprob, first, s, Parameters(), 1e-6)
+    cstart = coarse_start(cprob, first, s, Parameters(), 1e-6)
     cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz
     l = s.rest - 0.004                                        # other lengths: the open-loop offset is off there
     ceq = cprob.equilibrium(l, cstart.xyz)
-    fine = _correct(prob, cprob, l, ceq.xyz, 1e-8)
+    fine = correct(prob, cprob, l, ceq.xyz, 1e-8)
     assert fine is not None and fine.converged
     assert prob.tol == 1e-6                                   # the fine problem keeps its own tolerance
     want = face_fit(prob.p, fine.xyz, prob.approx_xyz).objective
@@ -289,8 +283,7 @@ def test_the_reduction_keeps_an_ill_conditioned_jacobians_steps():
 def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
     # the first inflation keeps its coarser levels (without changing its result); the open-loop equilibrium
     # on the 40 mm mesh carried on from its level is the one a fresh inflation on that mesh finds
-    from check.refinement import _coarse_start
-    from check.refinement import _problem as refine_problem
+    from check.trial_equilibrium import coarse_start
     s = design_strings(case)
     m = case.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.02)
@@ -301,8 +294,8 @@ def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
     coarser = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.08)
     assert plain.levels == ()
     assert [(lm.n_vertices, len(x)) for lm, x in kept.levels] == [(cmesh.n_vertices,) * 2, (coarser.n_vertices,) * 2]
-    cprob = refine_problem(cmesh, s, Parameters(), case, "top", 1e-6)
-    start = _coarse_start(cprob, kept, s, Parameters(), 1e-6)
+    cprob = make_problem(cmesh, s, Parameters(), case, "top", 1e-6)
+    start = coarse_start(cprob, kept, s, Parameters(), 1e-6)
     fresh = inflate(cmesh, s)
     assert start.converged and start.n_iter < fresh.n_iter
     assert np.max(np.abs(start.xyz - fresh.xyz)) < 1e-6     # m: the same equilibrium

@@ -1,0 +1,111 @@
+"""The refinement's Gauss–Newton loop: bounded Levenberg–Marquardt over the strings' simulated lengths.
+
+Each iteration linearizes the face fit with the adjoint Jacobian, reduces the
+least squares to k × k (:mod:`check.damped_step`) and tries damped, bounded
+steps, each judged by a trial equilibrium started from the first-order
+predictor, until one lowers the objective. Stopping rule: over an accepted
+step the model predicted well (ρ > 0.25), a decrease of the RMS below
+``rms_tol`` or a relative decrease of the objective below ``ftol``; or a step
+shorter than ``xtol``. SI units (m).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from airmat.progress import progress
+from check.damped_step import damped_step, reduce_least_squares
+from check.trial_equilibrium import TrialProblem
+
+__all__ = ["gauss_newton", "LAM_DOWN"]
+
+log = logging.getLogger(__name__)
+
+#: the damping is divided by this after a step its model predicted well (rho > 0.75)
+LAM_DOWN = 3.0
+
+
+def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, ftol, xtol, rms_tol,
+                  lam0=1e-3) -> dict:
+    """Bounded Levenberg–Marquardt over l* from ``l0`` (regularized toward ``l_reg``); the best lengths and how it went.
+
+    Parameters
+    ----------
+    prob : check.trial_equilibrium.TrialProblem
+        Its face fit is the objective; its trial equilibria evaluate a step.
+    l0, l_reg : ndarray of shape (k,)
+        Start lengths and the lengths the Tikhonov term pulls toward (m).
+    x0 : ndarray of shape (n, 3)
+        The equilibrium at ``l0`` (m).
+    lo, hi : ndarray of shape (k,)
+        Bounds of the lengths (m).
+    alpha : float
+        Weight of the Tikhonov term (``alpha · mean((l - l_reg)²)``).
+    max_iter : int
+    ftol, xtol, rms_tol : float
+        Stopping rule (see :func:`check.refinement.refine`); ``xtol`` in m.
+    lam0 : float
+        Start damping.
+
+    Returns
+    -------
+    dict
+        ``l``, ``x`` (the last accepted equilibrium), ``lam``, ``converged``, ``message``,
+        ``iterations``, ``objective_before``, ``objective_after``.
+    """
+    k = len(l0)
+    w = np.sqrt(alpha / k)
+
+    def total(fit, l):
+        return fit.objective + w * w * float(np.sum((l - l_reg) ** 2))
+
+    l, x = np.array(l0, float), x0
+    fit = prob.fit(x)
+    f = f_start = total(fit, l)
+    lam, it, converged, message = lam0, 0, False, f"not converged after {max_iter} iterations"
+    with progress(total=max_iter, desc=f"refine on {prob.mesh_label}", unit="it") as bar:
+        while it < max_iter:
+            jac, dx = prob.jacobian(l, x)
+            a = np.vstack([jac, w * np.eye(k)])
+            r = np.concatenate([fit.residual, w * (l - l_reg)])
+            scale = np.sqrt(np.maximum(np.sum(a * a, axis=0), 1e-30))
+            reduced = reduce_least_squares(a, r)
+            accepted = False
+            for _ in range(8):
+                step = damped_step(*reduced, scale, lam, lo - l, hi - l)
+                predicted = float(r @ r - np.sum((r + a @ step) ** 2))
+                if np.max(np.abs(step)) < xtol or predicted <= 0:
+                    converged, message = True, f"converged: step below {xtol * 1e3:.3g} mm"
+                    break
+                # first-order predictor: the equilibrium moves by dx/dl* step, then a few Newton steps
+                eq = prob.equilibrium(l + step, x + (dx @ step).reshape(x.shape))
+                log.debug("step of %.2f mm (max), predicted %.3g mm², lam %.2g: %s", 1e3 * np.max(np.abs(step)),
+                          predicted * 1e6, lam, "no equilibrium" if eq is None else f"{eq.n_iter} Newton iterations")
+                if eq is not None:
+                    fit_new = prob.fit(eq.xyz)
+                    f_new = total(fit_new, l + step)
+                    rho = (f - f_new) / predicted
+                    if rho > 1e-3:
+                        decrease, drms = (f - f_new) / f, np.sqrt(f) - np.sqrt(f_new)
+                        l, x, fit, f, accepted = l + step, eq.xyz, fit_new, f_new, True
+                        lam = lam / LAM_DOWN if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
+                        log.debug("refine iteration %d: objective %.4g mm², RMS %.2f mm, rho %.2f", it + 1,
+                                  f * 1e6, np.sqrt(fit.objective) * 1e3, rho)
+                        bar.update(1)
+                        bar.set_postfix_str(f"RMS {np.sqrt(fit.objective) * 1e3:.2f} mm")
+                        if rho > 0.25 and (decrease < ftol or drms < rms_tol):   # a small decrease the model foresaw
+                            converged, message = True, (f"converged: the RMS fell by {drms * 1e3:.3g} mm "
+                                                        f"(< {rms_tol * 1e3:.3g}) or relatively by {decrease:.2g}")
+                        break
+                lam *= 4.0
+            if converged:
+                it += int(accepted)
+                break
+            if not accepted:
+                message = "stalled: no step lowers the objective"
+                break
+            it += 1
+    return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
+            "objective_before": f_start, "objective_after": f}

@@ -1,0 +1,124 @@
+"""The equilibria of the refinement: what the trial solves on one mesh share, and the coarse level's start and correction.
+
+A :class:`TrialProblem` holds one mesh's pins, sparse assembler, Newton linear
+system (its symbolic factorization reused by every trial) and the operator
+that reads the named face at Ŝ's points. It solves trial equilibria at other
+string rest lengths from a given start (a failed trial leaves the Newton shift
+where it was) and gives the adjoint Jacobian of the face with respect to the
+rest lengths (:mod:`check.adjoint`). :func:`coarse_start` and :func:`correct`
+are the two-level scheme's coarse open-loop equilibrium and its defect
+correction. SI units (m).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from airmat.errors import AirmatError
+from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
+from check.refine_objective import face_fit, face_operator
+from inflation.assembly import build_assembler
+from inflation.energy import block_pattern
+from inflation.model import Parameters, build_model, with_strings
+from inflation.prolong import prolong
+from inflation.simulate import inflate
+from inflation.solver import NewtonSystem, rigid_pins, solve
+
+__all__ = ["TrialProblem", "make_problem", "coarse_start", "correct", "TRIAL_NEWTON"]
+
+log = logging.getLogger(__name__)
+
+#: Newton iterations a trial equilibrium may take before the trial counts as failed
+TRIAL_NEWTON = 50
+
+
+@dataclass
+class TrialProblem:
+    """What every trial equilibrium shares: mesh, pins, assembler, linear solver, face operator."""
+
+    mesh: object
+    strings: object
+    params: Parameters
+    fixed: np.ndarray
+    asm: object
+    system: NewtonSystem
+    p: object
+    approx_xyz: np.ndarray
+    tol: float
+    max_newton: int
+    base: object
+    offset: np.ndarray | None = None
+
+    @property
+    def mesh_label(self) -> str:
+        return f"the {1e3 * float(np.max(self.mesh.spacing)):.0f} mm mesh"
+
+    def fit(self, x):
+        """The face fit of positions ``x`` (with the coarse-mesh correction, if any)."""
+        return face_fit(self.p, x, self.approx_xyz, self.offset)
+
+    def model(self, rest):
+        return with_strings(self.base, self.mesh, dataclasses.replace(self.strings, rest=rest), self.params)
+
+    def equilibrium(self, rest, x0):
+        """Solve from ``x0`` on the final mesh; None when it does not converge."""
+        hint = self.system.hint_rel
+        try:
+            r = solve(self.model(rest), x0, fixed_dofs=self.fixed, tol=self.tol, max_iter=self.max_newton,
+                      max_move=0.5 * float(np.mean(self.mesh.spacing)), assembler=self.asm,
+                      linear_system=self.system, desc="trial equilibrium")
+        except AirmatError:
+            r = None
+        log.debug("trial equilibrium: %s", "failed" if r is None else f"{r.n_iter} Newton iterations, {r.message}")
+        if r is None or not r.converged:
+            self.system.hint_rel = hint      # a failed trial's large shifts must not slow the next one
+            return None
+        return r
+
+    def jacobian(self, rest, x):
+        """The (3N, k) Jacobian of the face fit's residual with respect to l*, and dx/dl* (3n, k)."""
+        model = self.model(rest)
+        fac = factor_equilibrium(model, x, self.asm, self.system.chol)
+        dx = equilibrium_jacobian(fac, rest_derivative(model.springs[-1], x, self.mesh.thickness))
+        n, k = len(x), len(rest)
+        face = (self.p @ dx.reshape(n, 3 * k)).reshape(-1, 3, k)
+        return face.reshape(-1, k) / np.sqrt(self.p.shape[0]), dx
+
+
+def make_problem(mesh, strings, params, design, named, tol) -> TrialProblem:
+    """The shared state of the trial equilibria on ``mesh``: pins, assembler, the strings' model, Ŝ's face operator."""
+    fixed = rigid_pins(mesh.uv, mesh.top)
+    model0 = build_model(mesh, strings, params)
+    asm = build_assembler(block_pattern(model0), model0.n_vertices, fixed)
+    return TrialProblem(mesh, strings, params, fixed, asm, NewtonSystem(groups=asm.free // 3),
+                    face_operator(mesh, design.approx.uv, named), design.approx.xyz, tol, TRIAL_NEWTON, model0)
+
+
+def coarse_start(cprob: TrialProblem, first, strings, params, tol):
+    """The open-loop equilibrium on ``cprob``'s mesh: the first inflation's level on that mesh (solved
+    there to the continuation's looser tolerance) carried on to ``tol``; a fresh inflation when it has none."""
+    h = float(np.max(cprob.mesh.spacing))
+    for m, x in first.levels:
+        if m.n_vertices == cprob.mesh.n_vertices and np.isclose(float(np.max(m.spacing)), h):
+            eq = cprob.equilibrium(strings.rest, x)
+            if eq is not None:
+                return eq
+    return inflate(cprob.mesh, strings, params=params, tol=tol)
+
+
+def correct(prob: TrialProblem, cprob: TrialProblem, l, x_coarse, trial_tol: float):
+    """Defect correction: the equilibrium on ``prob``'s (fine) mesh at lengths ``l``, from the prolonged coarse
+    one, and ``cprob.offset`` reset so that the coarse face fit at ``x_coarse`` is the fine one's there.
+    None (offset unchanged) when the fine solve does not converge."""
+    tol, prob.tol = prob.tol, trial_tol
+    try:
+        eq = prob.equilibrium(l, prolong(cprob.mesh, x_coarse, prob.mesh))
+    finally:
+        prob.tol = tol
+    if eq is not None:
+        cprob.offset = prob.p @ eq.xyz - cprob.p @ x_coarse
+    return eq
