@@ -53,7 +53,7 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
     -------
     dict
         ``l``, ``x`` (the last accepted equilibrium), ``lam``, ``converged``, ``message``,
-        ``iterations``, ``objective_before``, ``objective_after``.
+        ``iterations``, ``exhausted`` (stopped by ``max_iter``), ``objective_before``, ``objective_after``.
     """
     k = len(l0)
     w = np.sqrt(alpha / k)
@@ -108,4 +108,4 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
                 break
             it += 1
     return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
-            "objective_before": f_start, "objective_after": f}
+            "exhausted": not converged and it >= max_iter, "objective_before": f_start, "objective_after": f}

@@ -276,6 +276,8 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
             gn["iterations"] += gc["iterations"]
     gn["objective_before"] = face_fit(prob.p, first.xyz, prob.approx_xyz).objective
     l_best, converged, message = gn["l"], gn["converged"], gn["message"]
+    if gn["exhausted"]:        # counted over every stage (coarse, corrected, fine), not the last one's share
+        message = f"not converged after {gn['iterations']} iterations"
     span_tol = 1e-4 * hi
     dropped = l_best >= hi - span_tol
     flagged = l_best <= lo + span_tol

@@ -347,3 +347,10 @@ def test_the_refinement_shows_its_iterations_on_a_progress_bar(case, capsys):
         set_progress(None)
     err = capsys.readouterr().err
     assert "refine on the 40 mm mesh" in err and f"{r.iterations}/2" in err and "RMS" in err
+
+
+def test_a_refinement_out_of_iterations_counts_them_all(case):
+    # two coarse iterations and one at the resolution: the message counts the three, not the last stage's one
+    r = refine(case, resolution=0.02, max_iter=3, fine_iter=1)
+    assert r.iterations == 3 and not r.converged
+    assert r.message == "not converged after 3 iterations"
