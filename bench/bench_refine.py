@@ -6,6 +6,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets all --resolution-mm 20
     .venv/bin/python bench/bench_refine.py --presets vault1 --coarsest-mm 40 0   # two-level vs all at 20 mm
     .venv/bin/python bench/bench_refine.py --presets saddle --corrections 0 1    # with a defect correction
+    .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --alpha 1e-2 1e-3   # the regularization
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -16,7 +17,8 @@ verification inflation of the refined one, measured in the same run (the
 ratio refine / one inflation is the issue's target, <= 5x), strings
 dropped / flagged. ``--coarsest-mm 0`` runs every Gauss–Newton iteration at
 the resolution itself (no coarse level); ``--corrections N`` allows N defect
-corrections of the coarse level (``refine(..., corrections=N)``).
+corrections of the coarse level (``refine(..., corrections=N)``); ``--alpha A ...``
+one row per weight of the pull toward the open-loop lengths (``refine(..., alpha=A)``).
 """
 
 from __future__ import annotations
@@ -44,21 +46,26 @@ def main(argv=None) -> int:
                     help="coarsest mesh of the two-level scheme; 0: every iteration at the resolution")
     ap.add_argument("--corrections", type=int, nargs="+", default=[0],
                     help="defect corrections of the coarse level (one row each)")
+    ap.add_argument("--alpha", type=float, nargs="+", default=[None],
+                    help="weights of the pull toward the open-loop lengths (one row each; default: refine's)")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
-    print("| preset | mattress (mm) | GN mesh (mm) | corrections | open loop RMS mm (% diag) | refined RMS mm (% diag) "
+    print("| preset | mattress (mm) | GN mesh (mm) | corrections | alpha | open loop RMS mm (% diag) | refined RMS mm (% diag) "
           "| max mm before / after | iterations | converged | refine (s) | one inflation (s) "
           "| verification (s) | ratio | dropped / flagged |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names:
         design = designed_preset(name)
         m = design.mattress
-        for coarsest, n in [(c, n) for c in args.coarsest_mm for n in args.corrections if c > 0 or n == 0]:
+        runs = [(c, n, a) for c in args.coarsest_mm for n in args.corrections for a in args.alpha if c > 0 or n == 0]
+        for coarsest, n, alpha in runs:
+            kw = {} if alpha is None else {"alpha": alpha}
             r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter, coarsest=coarsest * MM,
-                       corrections=n)
+                       corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
             gn = r.coarse_resolution if r.coarse_resolution is not None else r.resolution
             print(f"| {name} | {m.width / MM:.0f} × {m.height / MM:.0f} | {gn / MM:g} | {len(r.corrections)} "
+                  f"| {r.alpha:g} "
                   f"| {b.rms / MM:.1f} "
                   f"({b.rms_pct_diag:.2f}) | {a.rms / MM:.1f} ({a.rms_pct_diag:.2f}) | {b.max / MM:.1f} / "
                   f"{a.max / MM:.1f} | {r.iterations} | {'yes' if r.converged else 'no'} | {r.seconds:.1f} "

@@ -8,8 +8,14 @@ from Ŝ after rigid alignment (:mod:`check.refine_objective`) plus a mild
 Tikhonov term ``alpha · mean((l* - l*_open)²)``: strings that barely move the
 named face (slack ones, or ones whose effect other strings can replace) stay
 at their open-loop length instead of drifting, and the Gauss–Newton matrix
-stays regular; ``alpha = 1e-2`` costs a 10 mm change of every string as much
-as 1 mm of RMS deviation.
+stays regular. ``alpha = 1e-3`` (the default) costs a 32 mm change of every
+string as much as 1 mm of RMS deviation (refined strings change by tens of
+mm: −45 to +12 mm on the saddle). Measured at 20 mm (README,
+``bench/bench_refine.py --alpha``): against 1e-2 it takes the saddle from 1.55
+to 1.29 % of the diagonal and the dome from 3.52 to 3.25 %, and leaves the
+others where they were; the outcome moves irregularly with ``alpha`` (each
+weight leads the iterations to another local optimum), and 1e-3 was the best
+of the five weights tried on each small preset.
 
 Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region
 (:mod:`check.gauss_newton`; the trial solves in :mod:`check.trial_equilibrium`). The
@@ -111,6 +117,8 @@ class Refinement:
         Mesh of the Gauss–Newton iterations (m); None: all at ``resolution``.
     corrections : tuple of float
         The RMS distance (m) of the fine face from Ŝ at each defect correction's coarse optimum.
+    alpha : float
+        Weight of the pull toward the open-loop lengths (dimensionless).
     """
 
     design: object
@@ -132,6 +140,7 @@ class Refinement:
     surface: str
     coarse_resolution: float | None = None
     corrections: tuple = ()
+    alpha: float = float("nan")
 
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
@@ -142,7 +151,7 @@ class Refinement:
                 "seconds": round(float(self.seconds), 2), "resolution_mm": round(self.resolution * 1e3, 3),
                 "coarse_resolution_mm": None if self.coarse_resolution is None
                 else round(self.coarse_resolution * 1e3, 3),
-                "defect_corrections": len(self.corrections),
+                "defect_corrections": len(self.corrections), "alpha": float(self.alpha),
                 "surface": self.surface, "deviation_before": dev(self.deviation_before),
                 "deviation_after": dev(self.deviation_after), "dropped": list(self.dropped),
                 "flagged": list(self.flagged), "message": self.message}
@@ -179,7 +188,7 @@ def check_refinable(design, resolution: float) -> None:
     check_resolution(design_strings(design, "median"), resolution)
 
 
-def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-2,
+def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-3,
            max_iter: int = 20, ftol: float = 2e-3, xtol: float = 1e-5, rms_tol: float = 5e-5,
            tol: float = 1e-6, trial_tol: float = 1e-4, coarsest: float = 0.04, fine_iter: int = 0,
            corrections: int = 0, surface: str = "auto") -> Refinement:
@@ -301,7 +310,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
                      dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
                      flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
                      verification_seconds=t_verify, resolution=resolution, surface=named,
-                     coarse_resolution=coarse, corrections=tuple(fine_rms))
+                     coarse_resolution=coarse, corrections=tuple(fine_rms), alpha=float(alpha))
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
              "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
              dev0.rms * 1e3, dev1.rms * 1e3)

@@ -59,6 +59,9 @@ def add_parser(sub, parents):
     p.add_argument("--refine-defect-corrections", type=int, default=0, metavar="N",
                    help="with --refine: re-correct the coarse mesh by the fine one up to N times where its "
                         "iterations stop early (see 'airmat refine --defect-corrections'; default 0)")
+    p.add_argument("--refine-regularization", type=float, default=None, metavar="ALPHA",
+                   help="with --refine: weight of the pull toward the open-loop lengths (see 'airmat refine "
+                        "--regularization'; default 1e-3)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
@@ -182,7 +185,9 @@ def run(args) -> int:
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     if args.refine and not (args.refine_resolution_mm > 0):
         raise InputError(f"--refine-resolution-mm must be > 0, got {args.refine_resolution_mm!r}")
-    from airmat.cli.refine import check_corrections
+    from airmat.cli.refine import check_corrections, check_regularization
+    if args.refine_regularization is not None:
+        check_regularization("--refine-regularization", args.refine_regularization)
     check_corrections("--refine-defect-corrections", args.refine_defect_corrections, args.refine_single_level,
                       "--refine-single-level")
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
@@ -192,9 +197,11 @@ def run(args) -> int:
         from airmat.units import MM
         from check.refinement import refine
 
+        kw = {} if args.refine_regularization is None else {"alpha": args.refine_regularization}
+        if args.refine_single_level:
+            kw["coarsest"] = 0.0
         refinement = refine(result, resolution=args.refine_resolution_mm * MM,
-                            corrections=args.refine_defect_corrections,
-                            **({"coarsest": 0.0} if args.refine_single_level else {}))
+                            corrections=args.refine_defect_corrections, **kw)
         result = refinement.design
         failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:

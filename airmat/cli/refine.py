@@ -18,12 +18,16 @@ def add_parser(sub, parents):
                         "resolution reproduces the promised deviation")
     p.add_argument("--max-iter", type=int, default=20, help="Gauss-Newton iterations (default 20)")
     p.add_argument("--single-level", action="store_true",
-                   help="run every Gauss-Newton iteration at --resolution-mm (slower, closer: vault1 7.0 mm "
-                        "at 9.4x one inflation instead of 8.0 mm at 5.3x); default: on twice that mesh")
+                   help="run every Gauss-Newton iteration at --resolution-mm (slower, closer; measured in the "
+                        "README, Refinement); default: on twice that mesh")
     p.add_argument("--defect-corrections", type=int, default=0, metavar="N",
                    help="where the iterations on the coarse mesh stop early, solve the fine mesh at their lengths, "
-                        "re-correct the coarse one by it and go on, up to N times (default 0; the saddle: "
-                        "16.6 -> 13.9 mm, 3.8x -> 5.6x one inflation)")
+                        "re-correct the coarse one by it and go on, up to N times (default 0; what it gains and "
+                        "costs is measured in the README, Refinement)")
+    p.add_argument("--regularization", type=float, default=None, metavar="ALPHA",
+                   help="weight of the pull toward the open-loop lengths, alpha * mean((l* - l*_open)^2) beside "
+                        "the mean squared deviation (default 1e-3: a 32 mm change of every string costs as much "
+                        "as 1 mm RMS)")
     p.set_defaults(func=run)
 
 
@@ -43,10 +47,15 @@ def run(args) -> int:
     if args.max_iter < 1:
         raise InputError(f"--max-iter must be >= 1, got {args.max_iter}")
     check_corrections("--defect-corrections", args.defect_corrections, args.single_level, "--single-level")
+    if args.regularization is not None:
+        check_regularization("--regularization", args.regularization)
     design = read_design(args.design)
     check_refinable(design, args.resolution_mm * MM)
+    kw = {} if args.regularization is None else {"alpha": args.regularization}
+    if args.single_level:
+        kw["coarsest"] = 0.0
     refinement = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
-                        corrections=args.defect_corrections, **({"coarsest": 0.0} if args.single_level else {}))
+                        corrections=args.defect_corrections, **kw)
     with staged(args.out) as tmp:
         write_design(refinement.design, tmp)
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
@@ -66,3 +75,9 @@ def check_corrections(option: str, n: int, single_level: bool, single_option: st
         raise InputError(f"{option} must be >= 0, got {n}")
     if n and single_level:
         raise InputError(f"{option} corrects the coarse mesh of the two-level scheme; {single_option} has none")
+
+
+def check_regularization(option: str, alpha: float) -> None:
+    """Refuse a regularization weight that is not a finite positive number."""
+    if not (0.0 < alpha < float("inf")):
+        raise InputError(f"{option} must be a positive number, got {alpha!r}")
