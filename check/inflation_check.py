@@ -19,6 +19,9 @@ the same face (:func:`check.monte_carlo.summarize`).
 The three runs are independent, so ``workers > 1`` runs them in that many
 Dask worker processes, or ``scheduler`` on an existing cluster
 (:func:`~inflation.simulate.inflate_many`, :mod:`inflation.executor`).
+An inflation already made the check's way (a :class:`KnownRun`, e.g. the
+verification of :func:`check.refinement.refine`) stands in for the median run
+when it is that run: same strings, mesh, parameters and tolerance.
 """
 
 from __future__ import annotations
@@ -36,12 +39,43 @@ from inflation.model import Parameters
 from inflation.simulate import Inflation, inflate_many
 from inflation.strings import StringSet, check_resolution
 
-__all__ = ["CheckRun", "DesignCheck", "check", "design_strings", "named_face", "LENGTH_KEYS"]
+__all__ = ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings", "named_face", "LENGTH_KEYS"]
 
 log = logging.getLogger(__name__)
 
 #: the string lengths a check can inflate with
 LENGTH_KEYS = ("median", "lo95", "hi95")
+
+#: force residual of the check's inflations (:func:`inflation.simulate.inflate`'s default)
+CHECK_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class KnownRun:
+    """An inflation made the check's way (flat start, ramp, continuation), to stand in for a run of :func:`check`.
+
+    Attributes
+    ----------
+    strings : StringSet
+        What was inflated (rest lengths l*, m); an empty set for no strings.
+    inflation : Inflation
+    params : Parameters
+    tol : float
+        Its force residual.
+    """
+
+    strings: StringSet
+    inflation: Inflation
+    params: Parameters
+    tol: float
+
+    def stands_for(self, strings: StringSet, mesh, params: Parameters, tol: float) -> bool:
+        """True when this is the inflation :func:`check` would make of ``strings`` on ``mesh``."""
+        mine, other, m = self.strings, strings, self.inflation.mesh
+        return (self.params == params and self.tol == tol and m is not None
+                and m.n_vertices == mesh.n_vertices and np.array_equal(m.spacing, mesh.spacing)
+                and len(mine) == len(other)
+                and all(np.array_equal(getattr(mine, f), getattr(other, f)) for f in ("a", "b", "top", "rest")))
 
 
 def design_strings(design, which: str = "median", *, lengths=None) -> StringSet:
@@ -165,7 +199,7 @@ def named_face(design, strings: StringSet) -> str:
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,
           strict: bool = False, workers: int = 1, scheduler: str | None = None, surface: str = "auto",
           calibrated_map: bool = False, lengths=None, samples: int = 0, seed: int = 0,
-          tolerance: float | None = None) -> DesignCheck:
+          tolerance: float | None = None, known: KnownRun | None = None) -> DesignCheck:
     """Inflate a design at its median string lengths (and at lo95 / hi95) and compare with Ŝ.
 
     Parameters
@@ -200,6 +234,9 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         Seed of the Monte-Carlo samples.
     tolerance : float, optional
         T (m) of the Monte-Carlo's P(RMS <= T).
+    known : KnownRun, optional
+        Used as the median run instead of inflating again when it is that run
+        (:meth:`KnownRun.stands_for`; e.g. ``Refinement.verification``); otherwise ignored.
 
     Returns
     -------
@@ -221,8 +258,16 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     string_sets = [design_strings(design, which, lengths=lengths) for which in which_runs]
     draws = draw(design, samples, seed, lengths=lengths) if samples > 0 else None
     mc_sets = [replace(string_sets[0], rest=rest) for rest in draws.rest] if draws is not None else []
-    inflations = inflate_many(mesh, [s if len(s) else None for s in string_sets + mc_sets], params=params,
+    to_run = string_sets + mc_sets
+    reuse = known is not None and known.stands_for(string_sets[0], mesh, params, CHECK_TOL) and \
+        (known.inflation.converged or not strict)
+    if reuse:
+        log.debug("the median run is the known inflation (%d Newton iterations): not run again", known.inflation.n_iter)
+        to_run = to_run[1:]
+    inflations = inflate_many(mesh, [s if len(s) else None for s in to_run], params=params,
                               strict=strict, workers=workers, scheduler=scheduler)
+    if reuse:
+        inflations = [replace(known.inflation, mesh=mesh, levels=())] + inflations
     inflations, mc_runs = inflations[:len(which_runs)], inflations[len(which_runs):]
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]

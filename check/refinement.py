@@ -68,7 +68,7 @@ import numpy as np
 from airmat.errors import InputError
 from check.compare import Deviation, deviation
 from check.gauss_newton import gauss_newton
-from check.inflation_check import design_strings, named_face
+from check.inflation_check import KnownRun, design_strings, named_face
 from check.length_map import length_map
 from check.refine_objective import face_fit
 from check.refined_design import REFINE_FLAG, refined_design
@@ -119,6 +119,9 @@ class Refinement:
         The RMS distance (m) of the fine face from Ŝ at each defect correction's coarse optimum.
     alpha : float
         Weight of the pull toward the open-loop lengths (dimensionless).
+    verification : check.inflation_check.KnownRun or None
+        The inflation that gave ``deviation_after`` (the check's own): :func:`check.inflation_check.check`
+        of ``design`` at this resolution takes it as its median run (``known=``) instead of inflating again.
     """
 
     design: object
@@ -141,6 +144,7 @@ class Refinement:
     coarse_resolution: float | None = None
     corrections: tuple = ()
     alpha: float = float("nan")
+    verification: KnownRun | None = None
 
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
@@ -292,16 +296,18 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     flagged = l_best <= lo + span_tol
     refined = refined_design(design, length_map(design.calibration).to_real(l_best), dropped, flagged)
     tv = time.perf_counter()
-    final = inflate(mesh, design_strings(refined, "median"), params=params, tol=tol) \
-        if len(refined.pattern.strings) else inflate(mesh, None, params=params, tol=tol)
+    refined_strings = design_strings(refined, "median")
+    final = inflate(mesh, refined_strings if len(refined_strings) else None, params=params, tol=tol)
     t_verify = time.perf_counter() - tv
     dev1 = deviation(final, design.approx.xyz, design.approx.uv, named)
+    known = KnownRun(refined_strings, final, params, tol)
     if not final.converged or dev1.rms > dev0.rms:
         message = (f"the refined lengths inflate to {dev1.rms * 1e3:.1f} mm RMS, not better than the "
                    f"open-loop {dev0.rms * 1e3:.1f} mm: the open-loop lengths are kept")
         converged, l_best, dev1 = False, l_open, dev0
         dropped, flagged = np.zeros(len(l_best), bool), np.zeros(len(l_best), bool)
         refined = dataclasses.replace(design)
+        known = KnownRun(strings, first, params, tol)
     ids = strings.ids
     res = Refinement(design=refined, converged=converged, iterations=gn["iterations"],
                      seconds=time.perf_counter() - t0, message=message, objective_before=gn["objective_before"],
@@ -310,7 +316,8 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
                      dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
                      flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
                      verification_seconds=t_verify, resolution=resolution, surface=named,
-                     coarse_resolution=coarse, corrections=tuple(fine_rms), alpha=float(alpha))
+                     coarse_resolution=coarse, corrections=tuple(fine_rms), alpha=float(alpha),
+                     verification=known)
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
              "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
              dev0.rms * 1e3, dev1.rms * 1e3)

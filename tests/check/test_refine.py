@@ -122,6 +122,33 @@ def test_the_pull_toward_the_open_loop_lengths_grows_with_alpha(case, refined):
     assert strong.deviation_after.rms > refined.deviation_after.rms
 
 
+def test_the_check_takes_the_verification_as_its_median_run_only_when_it_is_that_run(refined):
+    r = refined
+    reused = check(r.design, resolution=RESOLUTION, envelope=False, known=r.verification)
+    fresh = check(r.design, resolution=RESOLUTION, envelope=False)
+    assert reused.runs["median"].inflation.xyz is r.verification.inflation.xyz       # not inflated again
+    assert fresh.runs["median"].inflation.xyz is not r.verification.inflation.xyz
+    np.testing.assert_array_equal(fresh.runs["median"].inflation.xyz, reused.runs["median"].inflation.xyz)
+    assert reused.runs["median"].deviation.rms == fresh.runs["median"].deviation.rms == r.deviation_after.rms
+    # another run than the known one is inflated: other parameters, another mesh, other lengths
+    for kw in ({"params": Parameters(pressure=0.9 * Parameters().pressure)}, {"resolution": 0.03},
+               {"known": dataclasses.replace(r.verification, tol=1e-8)}):
+        other = check(r.design, **{"resolution": RESOLUTION, "envelope": False, "known": r.verification, **kw})
+        assert other.runs["median"].inflation.xyz is not r.verification.inflation.xyz
+    shifted = dataclasses.replace(r.verification, strings=dataclasses.replace(
+        r.verification.strings, rest=r.verification.strings.rest + 1e-4))
+    assert not shifted.stands_for(design_strings(r.design), r.verification.inflation.mesh, Parameters(), 1e-6)
+    assert r.verification.stands_for(design_strings(r.design), r.verification.inflation.mesh, Parameters(), 1e-6)
+
+
+def test_the_checks_tolerance_is_the_inflations_default():
+    import inspect
+
+    from check.inflation_check import CHECK_TOL
+    from inflation.simulate import inflate as inflate_fn
+    assert inspect.signature(inflate_fn).parameters["tol"].default == CHECK_TOL
+
+
 def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
     write_design(refined.design, tmp_path)
     doc = json.loads((tmp_path / "design.json").read_text())
