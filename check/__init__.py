@@ -24,7 +24,7 @@ from airmat.lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "compare": ["SURFACES", "Deviation", "deviation", "length_keeping_face", "realized_curvature",
                 "surface_at"],
-    "inflation_check": ["CheckRun", "DesignCheck", "check", "design_strings"],
+    "inflation_check": ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings"],
     "calibrated_map": ["calibrated_length_map"],
     "length_map": ["LengthMap", "CalibratedLengthMap", "length_map"],
     "monte_carlo": ["MonteCarloDraws", "MonteCarloResult"],
