@@ -12,10 +12,10 @@ stays regular. ``alpha = 1e-3`` (the default) costs a 32 mm change of every
 string as much as 1 mm of RMS deviation (refined strings change by tens of
 mm: −45 to +12 mm on the saddle). Measured at 20 mm (README,
 ``bench/bench_refine.py --alpha``): against 1e-2 it takes the saddle from 1.55
-to 1.29 % of the diagonal and the dome from 3.52 to 3.25 %, and leaves the
-others where they were; the outcome moves irregularly with ``alpha`` (each
-weight leads the iterations to another local optimum), and 1e-3 was the best
-of the five weights tried on each small preset.
+to 1.29 % of the diagonal, the lowest of the five weights tried, and vault1 lands
+at 0.71–0.74 % whatever the weight; the outcome moves irregularly with
+``alpha`` on the saddle and the dome (each weight leads the iterations to
+another local optimum).
 
 Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region
 (:mod:`check.gauss_newton`; the trial solves in :mod:`check.trial_equilibrium`). The
@@ -72,7 +72,7 @@ from check.inflation_check import KnownRun, design_strings, named_face
 from check.length_map import length_map
 from check.refine_objective import face_fit
 from check.refined_design import REFINE_FLAG, refined_design
-from check.trial_equilibrium import coarse_start, correct, make_problem
+from check.trial_equilibrium import SOLVE_NEWTON, coarse_start, correct, make_problem
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.prolong import prolong
@@ -279,7 +279,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
                                max_iter=max_iter - fine_iter - gc["iterations"], lam0=gc["lam"], **kw)
             g2["iterations"] += gc["iterations"]
             gc = g2
-        eq = prob.equilibrium(gc["l"], prolong(cmesh, gc["x"], mesh)) if fine_iter else None
+        eq = prob.equilibrium(gc["l"], prolong(cmesh, gc["x"], mesh), SOLVE_NEWTON) if fine_iter else None
         log.debug("refinement: %d iterations on the %.0f mm mesh (%s), then here", gc["iterations"],
                   coarse * 1e3, gc["message"])
         if eq is None:

@@ -54,6 +54,17 @@ def test_a_failed_trial_leaves_the_newton_shift_as_it_was(case):
     assert eq is not None and eq.n_iter <= 1
 
 
+def test_a_trial_has_a_smaller_newton_budget_than_the_solves_that_are_not_trials(case):
+    from check.trial_equilibrium import SOLVE_NEWTON, TRIAL_NEWTON
+
+    prob, s, inf = _problem(case, tol=1e-8)
+    assert prob.max_newton == TRIAL_NEWTON < SOLVE_NEWTON
+    shaken = inf.xyz + 0.002 * np.random.default_rng(1).normal(size=inf.xyz.shape)
+    slow = prob.equilibrium(s.rest, shaken, SOLVE_NEWTON)
+    assert slow is not None and slow.n_iter > 2
+    assert prob.equilibrium(s.rest, shaken, max_newton=slow.n_iter - 1) is None       # out of its budget
+
+
 def test_adjoint_gradient_and_jacobian_match_finite_differences(case):
     prob, s, inf = _problem(case)
     assert inf.converged
