@@ -36,7 +36,7 @@ from check.length_map import length_map
 from check.monte_carlo import draw, summarize
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
-from inflation.simulate import Inflation, inflate_many
+from inflation.simulate import INFLATE_TOL, Inflation, inflate_many
 from inflation.strings import StringSet, check_resolution
 
 __all__ = ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings", "named_face", "LENGTH_KEYS"]
@@ -45,9 +45,6 @@ log = logging.getLogger(__name__)
 
 #: the string lengths a check can inflate with
 LENGTH_KEYS = ("median", "lo95", "hi95")
-
-#: force residual of the check's inflations (:func:`inflation.simulate.inflate`'s default)
-CHECK_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -74,7 +71,6 @@ class KnownRun:
         mine, other, m = self.strings, strings, self.inflation.mesh
         return (self.params == params and self.tol == tol and m is not None
                 and m.n_vertices == mesh.n_vertices and np.array_equal(m.spacing, mesh.spacing)
-                and len(mine) == len(other)
                 and all(np.array_equal(getattr(mine, f), getattr(other, f)) for f in ("a", "b", "top", "rest")))
 
 
@@ -259,7 +255,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     draws = draw(design, samples, seed, lengths=lengths) if samples > 0 else None
     mc_sets = [replace(string_sets[0], rest=rest) for rest in draws.rest] if draws is not None else []
     to_run = string_sets + mc_sets
-    reuse = known is not None and known.stands_for(string_sets[0], mesh, params, CHECK_TOL) and \
+    reuse = known is not None and known.stands_for(string_sets[0], mesh, params, INFLATE_TOL) and \
         (known.inflation.converged or not strict)
     if reuse:
         log.debug("the median run is the known inflation (%d Newton iterations): not run again", known.inflation.n_iter)

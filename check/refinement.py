@@ -76,7 +76,7 @@ from check.trial_equilibrium import SOLVE_NEWTON, coarse_start, correct, make_pr
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.prolong import prolong
-from inflation.simulate import inflate
+from inflation.simulate import INFLATE_TOL, inflate
 from inflation.strings import check_resolution
 
 __all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
@@ -194,7 +194,7 @@ def check_refinable(design, resolution: float) -> None:
 
 def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-3,
            max_iter: int = 20, ftol: float = 2e-3, xtol: float = 1e-5, rms_tol: float = 5e-5,
-           tol: float = 1e-6, trial_tol: float = 1e-4, coarsest: float = 0.04, fine_iter: int = 0,
+           tol: float = INFLATE_TOL, trial_tol: float = 1e-4, coarsest: float = 0.04, fine_iter: int = 0,
            corrections: int = 0, surface: str = "auto") -> Refinement:
     """Adjust the strings' lengths so that the inflated named face lands on Ŝ (see the module docstring).
 
@@ -294,7 +294,8 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     span_tol = 1e-4 * hi
     dropped = l_best >= hi - span_tol
     flagged = l_best <= lo + span_tol
-    refined = refined_design(design, length_map(design.calibration).to_real(l_best), dropped, flagged)
+    lengths = length_map(design.calibration)
+    refined = refined_design(design, lengths.to_real(l_best), dropped, flagged)
     tv = time.perf_counter()
     refined_strings = design_strings(refined, "median")
     final = inflate(mesh, refined_strings if len(refined_strings) else None, params=params, tol=tol)
@@ -312,7 +313,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     res = Refinement(design=refined, converged=converged, iterations=gn["iterations"],
                      seconds=time.perf_counter() - t0, message=message, objective_before=gn["objective_before"],
                      objective_after=gn["objective_after"], deviation_before=dev0, deviation_after=dev1,
-                     l_real=length_map(design.calibration).to_real(l_best), l_simulated=l_best,
+                     l_real=lengths.to_real(l_best), l_simulated=l_best,
                      dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
                      flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
                      verification_seconds=t_verify, resolution=resolution, surface=named,

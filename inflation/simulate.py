@@ -31,9 +31,12 @@ from inflation.prolong import coarse_resolutions, prolong
 from inflation.solver import NewtonSystem, rigid_pins, solve
 from inflation.strings import StringSet
 
-__all__ = ["Inflation", "inflate", "inflate_many", "start_positions"]
+__all__ = ["Inflation", "inflate", "inflate_many", "start_positions", "INFLATE_TOL"]
 
 log = logging.getLogger(__name__)
+
+#: final relative force residual of an inflation (the check's, and the refinement's verification)
+INFLATE_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -166,7 +169,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
 
 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
-            tol: float = 1e-6, stages: int = 4, stage_tol: float = 3e-2, level_tol: float = 1e-3,
+            tol: float = INFLATE_TOL, stages: int = 4, stage_tol: float = 3e-2, level_tol: float = 1e-3,
             coarsest: float = 0.08, dent: float = 0.0, max_iter: int = 200,
             strict: bool = False, keep_levels: bool = False) -> Inflation:
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.

@@ -185,9 +185,8 @@ def run(args) -> int:
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     if args.refine and not (args.refine_resolution_mm > 0):
         raise InputError(f"--refine-resolution-mm must be > 0, got {args.refine_resolution_mm!r}")
-    from airmat.cli.refine import check_corrections, check_regularization
-    if args.refine_regularization is not None:
-        check_regularization("--refine-regularization", args.refine_regularization)
+    from airmat.cli.refine import check_corrections, check_regularization, refine_options
+    check_regularization("--refine-regularization", args.refine_regularization)
     check_corrections("--refine-defect-corrections", args.refine_defect_corrections, args.refine_single_level,
                       "--refine-single-level")
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
@@ -197,11 +196,9 @@ def run(args) -> int:
         from airmat.units import MM
         from check.refinement import refine
 
-        kw = {} if args.refine_regularization is None else {"alpha": args.refine_regularization}
-        if args.refine_single_level:
-            kw["coarsest"] = 0.0
         refinement = refine(result, resolution=args.refine_resolution_mm * MM,
-                            corrections=args.refine_defect_corrections, **kw)
+                            **refine_options(args.refine_defect_corrections, args.refine_regularization,
+                                             args.refine_single_level))
         result = refinement.design
         failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:

@@ -47,15 +47,11 @@ def run(args) -> int:
     if args.max_iter < 1:
         raise InputError(f"--max-iter must be >= 1, got {args.max_iter}")
     check_corrections("--defect-corrections", args.defect_corrections, args.single_level, "--single-level")
-    if args.regularization is not None:
-        check_regularization("--regularization", args.regularization)
+    check_regularization("--regularization", args.regularization)
     design = read_design(args.design)
     check_refinable(design, args.resolution_mm * MM)
-    kw = {} if args.regularization is None else {"alpha": args.regularization}
-    if args.single_level:
-        kw["coarsest"] = 0.0
     refinement = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
-                        corrections=args.defect_corrections, **kw)
+                        **refine_options(args.defect_corrections, args.regularization, args.single_level))
     with staged(args.out) as tmp:
         write_design(refinement.design, tmp)
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
@@ -77,7 +73,17 @@ def check_corrections(option: str, n: int, single_level: bool, single_option: st
         raise InputError(f"{option} corrects the coarse mesh of the two-level scheme; {single_option} has none")
 
 
-def check_regularization(option: str, alpha: float) -> None:
-    """Refuse a regularization weight that is not a finite positive number."""
-    if not (0.0 < alpha < float("inf")):
+def check_regularization(option: str, alpha: float | None) -> None:
+    """Refuse a regularization weight that is not a finite positive number (None: refine's default)."""
+    if alpha is not None and not (0.0 < alpha < float("inf")):
         raise InputError(f"{option} must be a positive number, got {alpha!r}")
+
+
+def refine_options(corrections: int, alpha: float | None, single_level: bool) -> dict:
+    """The keyword arguments of :func:`check.refinement.refine` that the command-line options set."""
+    kw = {"corrections": corrections}
+    if alpha is not None:
+        kw["alpha"] = alpha
+    if single_level:
+        kw["coarsest"] = 0.0
+    return kw

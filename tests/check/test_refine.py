@@ -155,9 +155,10 @@ def test_the_check_takes_the_verification_as_its_median_run_only_when_it_is_that
 def test_the_checks_tolerance_is_the_inflations_default():
     import inspect
 
-    from check.inflation_check import CHECK_TOL
+    from inflation.simulate import INFLATE_TOL
     from inflation.simulate import inflate as inflate_fn
-    assert inspect.signature(inflate_fn).parameters["tol"].default == CHECK_TOL
+    assert inspect.signature(inflate_fn).parameters["tol"].default == INFLATE_TOL
+    assert inspect.signature(refine).parameters["tol"].default == INFLATE_TOL   # the verification the check reuses
 
 
 def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
