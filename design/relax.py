@@ -7,13 +7,10 @@ The mesh M (Ω's triangulation) starts flat on S and minimises
 (A1: edges keep their Ω length ε0; A2: vertices move to their closest point
 on S, where S is continued across its rim by the rim faces' tangent planes,
 design.closest_point.MeshProjector.closest_extended; A3: vertices move toward their neighbours' average, with the cotangent
-weights of flat Ω, so that flat Ω is a rest state of A3). The solver is a
-local-global (projective dynamics) iteration: the local step projects each
-edge onto its rest length and each vertex onto S (one BVH query for all
-vertices), the global step solves one linear system whose matrix
-``k_A1 AᵀA + k_A2 I + k_A3 LᵀL`` never changes, so it is factorised once.
-Anderson acceleration (design.anderson) speeds it up; an accelerated step
-that raises U_A is replaced by the plain step, so U_A never increases.
+weights of flat Ω, so that flat Ω is a rest state of A3). The solver, its
+stopping rule and its resolution-independent weights are design.local_global
+(a local-global, projective-dynamics iteration with Anderson acceleration);
+this module chooses where it starts and reports Ŝ.
 Wrapping a fine flat mesh around a strongly curved S in one go can crumple
 it, so coarser grids of Ω are solved first, each starting the next.
 
@@ -32,18 +29,6 @@ keeps it without trying the others). Lowest U_A is not the criterion: with
 the rim-aware A2 overhanging costs nothing, and with the plain one it
 picked the 90° turn of the vault1 and saddle presets, whose Ŝ is no better
 (the saddle's σ max rose from 1.093 to 1.104).
-
-Stopping rule: the largest unbalanced force on a vertex, |∂U_A/∂x_i|, below
-``tol`` × k_A1 × h (h the mean edge length): the pull of one edge strained by
-``tol``. On a triangulated target the force cannot reach 0 (the closest-point
-map is only piecewise smooth), so an energy that stops decreasing also ends
-the iteration, and the message says so. Lengths in metres.
-
-Resolution independence: the A1 term per unit area does not depend on the
-mesh spacing h, the per-vertex A2 and A3 terms grow as 1/h². The weights
-k_A2 and k_A3 are therefore stated for the reference spacing of 20 mm and
-multiplied by (h / 20 mm)² (h: mean rest edge length), so Ŝ stays the same
-when the mesh is refined.
 """
 
 from __future__ import annotations
@@ -53,25 +38,19 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import factorized
 
 from airmat.errors import ConvergenceError
-from airmat.geometry.topology import boundary_edge_mask, cotangent_matrix, mesh_edges
+from airmat.geometry.topology import mesh_edges
 from airmat.progress import progress as progress_bar
 from airmat.progress import progress_enabled
-from design.anderson import AndersonAcceleration
 from design.closest_point import MeshProjector
+from design.local_global import REFERENCE_SPACING, STALL_WINDOW, UAProblem, iterate, umbrella_operator
 from design.placement import apply_placement, candidate_placements, placement_matrix
 
 __all__ = ["RelaxResult", "relax_to_target", "relax_from", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
 
 log = logging.getLogger(__name__)
 
-#: spacing (m) at which k_A2 and k_A3 apply as given
-REFERENCE_SPACING = 0.02
-#: iterations over which a stalled energy is detected
-STALL_WINDOW = 50
 #: force tolerance (k_A1·h) of the coarse grids, whose Ŝ is only a start
 COARSE_TOL = 1e-3
 #: iterations of the coarse relaxation that scores a candidate placement
@@ -119,91 +98,6 @@ class RelaxResult:
     placement: np.ndarray
     history: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     off_target: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
-
-
-def umbrella_operator(uv: np.ndarray, faces: np.ndarray, weights: str = "cotan") -> sp.csr_matrix:
-    """The A3 operator L with (L x)_i = x_i − mean of i's neighbours, shape (r, n).
-
-    Interior vertices average all their neighbours, boundary vertices their two
-    boundary neighbours (averaging inner neighbours would pull the rim inward).
-    Only vertices where the term vanishes on the flat Ω get a row (this drops the
-    corners): the flat mattress is a rest state of U_A3.
-
-    ``weights="cotan"`` (default) weighs an interior vertex's neighbours with the
-    cotangent weights of flat Ω (on the chequerboard grid: its four axis neighbours
-    equally), which also makes ``LᵀL x`` nearly vanish on surfaces of constant curvature away
-    from the rim, so A3 smooths without biasing curvature there; ``"uniform"``
-    averages all neighbours (on the 4-8 grid that biases curvature in a chequerboard).
-    """
-    n = len(uv)
-    e = mesh_edges(faces)
-    on_rim = boundary_edge_mask(faces)  # same order as mesh_edges
-    rim_vertex = np.zeros(n, bool)
-    rim_vertex[e[on_rim].ravel()] = True
-    # an interior vertex uses every edge; a rim vertex only rim edges
-    ij = np.concatenate([e, e[:, ::-1]])
-    rim_edge = np.concatenate([on_rim, on_rim])
-    keep = ~rim_vertex[ij[:, 0]] | rim_edge
-    ij = ij[keep]
-    w = np.ones(len(ij))
-    if weights == "cotan":
-        cot = cotangent_matrix(uv, faces)
-        wc = np.asarray(cot[ij[:, 0], ij[:, 1]]).ravel()
-        w = np.where(rim_edge[keep], 1.0, np.where(np.abs(wc) < 1e-12, 0.0, wc))
-    adj = sp.csr_matrix((w, (ij[:, 0], ij[:, 1])), shape=(n, n))
-    adj.eliminate_zeros()
-    deg = np.asarray(adj.sum(axis=1)).ravel()
-    lap = sp.identity(n, format="csr") - sp.diags(1.0 / np.maximum(deg, 1)) @ adj
-    rest = np.linalg.norm(lap @ uv, axis=1)
-    h = np.linalg.norm(uv[e[:, 0]] - uv[e[:, 1]], axis=1).mean()
-    rows = np.flatnonzero((rest < 1e-6 * h) & (deg > 0))
-    return lap[rows]
-
-
-class _Problem:
-    """U_A's fixed data: the local step (projections) and the prefactorised global step."""
-
-    def __init__(self, uv, faces, projector, k1, k2, k3, *, extend_rim=True):
-        n = len(uv)
-        self.edges = mesh_edges(faces)
-        self.rest = np.linalg.norm(uv[self.edges[:, 0]] - uv[self.edges[:, 1]], axis=1)
-        self.h = float(self.rest.mean())
-        scale = (self.h / REFERENCE_SPACING) ** 2   # per-vertex weights are given at 20 mm spacing
-        k2, k3 = k2 * scale, k3 * scale
-        self.lap = umbrella_operator(uv, faces)
-        m = len(self.edges)
-        rows = np.r_[np.arange(m), np.arange(m)]
-        self.inc = sp.csr_matrix((np.r_[np.ones(m), -np.ones(m)],
-                                  (rows, np.r_[self.edges[:, 0], self.edges[:, 1]])), shape=(m, n))
-        self.gmat = (k1 * (self.inc.T @ self.inc) + k2 * sp.identity(n) + k3 * (self.lap.T @ self.lap)).tocsc()
-        self.solve = factorized(self.gmat)
-        self.k = (k1, k2, k3)
-        self.projector = projector
-        self.extend_rim = extend_rim
-
-    def project(self, x):
-        """A2's targets (n, 3): closest points on S, continued across its rim by tangent planes
-        (``extend_rim``, design.closest_point.MeshProjector.closest_extended) or not."""
-        return (self.projector.closest_extended(x) if self.extend_rim else self.projector.closest(x)).points
-
-    def energy(self, x, cp) -> dict:
-        k1, k2, k3 = self.k
-        length = np.linalg.norm(self.inc @ x, axis=1)
-        u1 = 0.5 * k1 * np.sum((length - self.rest) ** 2)
-        u2 = 0.5 * k2 * np.sum((x - cp) ** 2)
-        u3 = 0.5 * k3 * np.sum((self.lap @ x) ** 2)
-        return {"U_A1": float(u1), "U_A2": float(u2), "U_A3": float(u3), "U_A": float(u1 + u2 + u3)}
-
-    def global_step(self, x, cp):
-        """The projective-dynamics step G(x) (edges projected to rest length, one linear solve)
-        and the force -∇U_A(x), both (n, 3)."""
-        k1, k2, _ = self.k
-        d = self.inc @ x
-        length = np.linalg.norm(d, axis=1)
-        d *= (self.rest / np.maximum(length, 1e-12 * self.h))[:, None]
-        rhs = k1 * (self.inc.T @ d) + k2 * cp
-        g = np.column_stack([self.solve(np.ascontiguousarray(rhs[:, c])) for c in range(3)])
-        return g, rhs - self.gmat @ x
 
 
 def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a2: float = 0.2,
@@ -276,7 +170,7 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     lo = uv.min(axis=0)
     width, height = uv.max(axis=0) - lo
     projector = projector or MeshProjector(target.vertices, target.faces)
-    prob = _Problem(uv, faces, projector, k_a1, k_a2, k_a3)
+    prob = UAProblem(uv, faces, projector, k_a1, k_a2, k_a3)
     spacing = float(np.median(prob.rest))
     t0 = time.perf_counter()
     settled = None   # the chosen candidate's coarse Ŝ, when its scoring relaxation converged
@@ -292,8 +186,8 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
                            stall=stall, max_iter=max_iter, anderson=anderson, settled=settled)
     bar = progress_bar(total=max_iter, desc="relax Ŝ", unit="it") if progress and progress_enabled() else None
     try:
-        x, it, status, residual, history = _iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
-                                                    window=anderson, bar=bar)
+        x, it, status, residual, history = iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
+                                                   window=anderson, bar=bar)
     finally:
         if bar is not None:
             bar.close()
@@ -351,14 +245,14 @@ def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: floa
     energy : dict
         ``U_A1``, ``U_A2``, ``U_A3``, ``U_A`` at ``x`` (with these rest lengths).
     """
-    prob = _Problem(np.asarray(uv, float), np.asarray(faces, np.int64), projector, k_a1, k_a2, k_a3)
+    prob = UAProblem(np.asarray(uv, float), np.asarray(faces, np.int64), projector, k_a1, k_a2, k_a3)
     if rest is not None:
         rest = np.asarray(rest, float)
         if rest.shape != prob.rest.shape or not np.all(rest > 0):
             raise ValueError(f"rest lengths: expected {prob.rest.shape[0]} positive values, got shape {rest.shape}")
         prob.rest = rest
-    x, it, status, residual, _ = _iterate(prob, np.array(x0, float), tol=tol, stall=stall, max_iter=max_iter,
-                                          window=anderson, bar=None)
+    x, it, status, residual, _ = iterate(prob, np.array(x0, float), tol=tol, stall=stall, max_iter=max_iter,
+                                         window=anderson, bar=None)
     return x, it, status != "max_iter", residual, prob.energy(x, prob.project(x))
 
 
@@ -386,13 +280,13 @@ def _best_placement(target, projector, width, height, *, spacing, k, stall, ande
     candidates = candidate_placements(target, width, height, projector=projector)
     coarse = spacing * 2 ** _coarse_levels(spacing, width, height)
     cuv, cfaces = triangulate_mattress(Mattress(float(width), float(height)), spacing=coarse)
-    prob = _Problem(cuv, cfaces, projector, *k)
+    prob = UAProblem(cuv, cfaces, projector, *k)
     d1, d2 = cuv[cfaces[:, 1]] - cuv[cfaces[:, 0]], cuv[cfaces[:, 2]] - cuv[cfaces[:, 0]]
     area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
     best, best_share, settled = candidates[0], np.inf, None
     for i, mat in enumerate(candidates):
-        x, _, status, *_ = _iterate(prob, apply_placement(mat, cuv), tol=COARSE_TOL, stall=stall,
-                                    max_iter=PLACEMENT_ITER, window=anderson, bar=None)
+        x, _, status, *_ = iterate(prob, apply_placement(mat, cuv), tol=COARSE_TOL, stall=stall,
+                                   max_iter=PLACEMENT_ITER, window=anderson, bar=None)
         near = projector.closest(x)
         off = near.on_rim & (near.distance > OFF_TARGET * prob.h)
         share = float(area @ off[cfaces].mean(axis=1) / area.sum())
@@ -428,54 +322,11 @@ def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, an
         if prev_uv is None and settled is not None and np.array_equal(settled[0], cuv):
             prev_uv, prev_x = settled
             continue
-        prob = _Problem(cuv, cfaces, projector, *k)
-        x, it, status, residual, _ = _iterate(prob, x, tol=COARSE_TOL, stall=stall, max_iter=max_iter,
-                                              window=anderson, bar=None)
+        prob = UAProblem(cuv, cfaces, projector, *k)
+        x, it, status, residual, _ = iterate(prob, x, tol=COARSE_TOL, stall=stall, max_iter=max_iter,
+                                             window=anderson, bar=None)
         log.debug("coarse level %d (%.0f mm): %s after %d iterations, force %.2g", level,
                   1e3 * prob.h, status, it, residual)
         prev_uv, prev_x = cuv, x
     # the coarse grid is a polyhedron: put the fine vertices back onto S (or its continuation)
     return projector.closest_extended(LinearNDInterpolator(prev_uv, prev_x)(uv)).points
-
-
-def _iterate(prob: _Problem, x, *, tol, stall, max_iter, window, bar):
-    """Anderson-accelerated local-global iterations from x.
-
-    Returns (x, n_iter, status, residual, history); status is "force", "stall" or "max_iter".
-    """
-    acc = AndersonAcceleration(window)
-    cp = prob.project(x)
-    e = e0 = prob.energy(x, cp)["U_A"]
-    g, force = prob.global_step(x, cp)
-    history, energies, status, residual, it = [], [e], "max_iter", np.inf, 0
-    for it in range(1, max_iter + 1):
-        residual = float(np.linalg.norm(force, axis=1).max() / (prob.k[0] * prob.h))
-        history.append(residual)
-        if residual < tol:
-            status = "force"
-            break
-        if len(energies) > STALL_WINDOW and energies[-STALL_WINDOW - 1] - e <= stall * e:
-            status = "stall"
-            break
-        if not np.isfinite(g).all():
-            raise ConvergenceError(f"U_A relaxation diverged at iteration {it} (non-finite positions)",
-                                   n_iter=it)
-        x_new = acc.propose(x, g)
-        cp_new = prob.project(x_new)
-        e_new = prob.energy(x_new, cp_new)["U_A"]
-        if e_new > e and x_new is not g:  # the accelerated step went uphill: take the plain one
-            acc.reset()
-            acc.propose(x, g)
-            x_new, cp_new = g, prob.project(g)
-            e_new = prob.energy(x_new, cp_new)["U_A"]
-        if not (np.isfinite(x_new).all() and np.isfinite(e_new)) or e_new > 1e3 * e0 + 1e-30:
-            raise ConvergenceError(f"U_A relaxation diverged at iteration {it} "
-                                   f"(energy {e_new:.3g}, started at {e0:.3g})", n_iter=it)
-        x, cp, e = x_new, cp_new, e_new
-        energies.append(e)
-        g, force = prob.global_step(x, cp)
-        if bar is not None:
-            bar.update(1)
-            if it % 10 == 0:
-                bar.set_postfix_str(f"force {residual:.1e} k_A1·h")
-    return x, it, status, residual, history
