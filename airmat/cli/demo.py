@@ -73,7 +73,7 @@ def summary(out: Path, cal, truth: dict, design, check, seconds: dict, refinemen
 
 def _refine_line(r) -> str:
     b, a = r.deviation_before, r.deviation_after
-    dropped = f", {len(r.dropped)} strings dropped" if r.dropped else ""
+    dropped = f", {len(r.dropped)} string{'' if len(r.dropped) == 1 else 's'} dropped" if r.dropped else ""
     return (f"  refinement   RMS {b.rms * 1e3:.1f} -> {a.rms * 1e3:.1f} mm ({b.rms_pct_diag:.2f} -> "
             f"{a.rms_pct_diag:.2f}% of the diagonal), {r.iterations} Gauss-Newton iterations, "
             f"{'converged' if r.converged else 'NOT CONVERGED'}{dropped}")

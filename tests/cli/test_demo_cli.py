@@ -39,3 +39,15 @@ def test_demo_no_refine_checks_the_open_loop_lengths(tmp_path, capsys):
     assert main(["demo", "--out", str(out), "--points", "20000", "--resolution-mm", "60", "--no-refine", "-q"]) == 0
     assert "refinement" not in capsys.readouterr().out
     assert "refine" not in json.loads((out / "design" / "design.json").read_text())
+
+
+@pytest.mark.parametrize("dropped, words", [((), "converged"), (("k1-001",), "1 string dropped"),
+                                            (("a", "b"), "2 strings dropped")])
+def test_the_refinement_line_counts_dropped_strings_in_words(dropped, words):
+    from types import SimpleNamespace
+
+    from airmat.cli.demo import _refine_line
+    dev = SimpleNamespace(rms=0.0131, rms_pct_diag=1.29)
+    line = _refine_line(SimpleNamespace(deviation_before=dev, deviation_after=dev, iterations=11, converged=True,
+                                        dropped=dropped))
+    assert line.endswith(words) and "13.1 -> 13.1 mm" in line
