@@ -39,7 +39,7 @@ from designed_preset import designed_preset  # noqa: E402
 from design.pipeline import DesignParams  # noqa: E402
 from design.closest_point import MeshProjector  # noqa: E402
 from design.curvature import principal_curvature  # noqa: E402
-from design.relax import _iterate, _Problem  # noqa: E402
+from design.local_global import UAProblem, iterate  # noqa: E402
 
 ROUNDS = 2
 _default_relax = surface_module.relax_to_target
@@ -52,7 +52,7 @@ def _mid_metric_relax(thickness):
 
 def _relax_mid(uv, faces, target, thickness, **kw):
     result = _default_relax(uv, faces, target, **kw)
-    prob = _Problem(uv, faces, MeshProjector(target.vertices, target.faces), kw.get("k_a1", 1.0),
+    prob = UAProblem(uv, faces, MeshProjector(target.vertices, target.faces), kw.get("k_a1", 1.0),
                     kw.get("k_a2", 0.2), kw.get("k_a3", 0.02))
     rest, edges, x = prob.rest.copy(), prob.edges, result.xyz
     for _ in range(ROUNDS):
@@ -65,7 +65,7 @@ def _relax_mid(uv, faces, target, thickness, **kw):
             for i in range(2):
                 kn += 0.5 * np.abs(curv.kappa[v, i]) * np.einsum("kd,kd->k", t, curv.directions[v, i]) ** 2
         prob.rest = rest * (1.0 - 0.5 * thickness * kn)
-        x = _iterate(prob, x.copy(), tol=1e-4, stall=1e-7, max_iter=1000, window=5, bar=None)[0]
+        x = iterate(prob, x.copy(), tol=1e-4, stall=1e-7, max_iter=1000, window=5, bar=None)[0]
     return dataclasses.replace(result, xyz=x)
 
 

@@ -7,6 +7,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets vault1 --coarsest-mm 40 0   # two-level vs all at 20 mm
     .venv/bin/python bench/bench_refine.py --presets saddle --corrections 0 1    # with a defect correction
     .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --alpha 1e-2 1e-3   # the regularization
+    .venv/bin/python bench/bench_refine.py --presets all --reparametrize 0 1   # Ŝ as designed vs re-parametrized
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -18,7 +19,12 @@ ratio refine / one inflation is the issue's target, <= 5x), strings
 dropped / flagged. ``--coarsest-mm 0`` runs every Gauss–Newton iteration at
 the resolution itself (no coarse level); ``--corrections N`` allows N defect
 corrections of the coarse level (``refine(..., corrections=N)``); ``--alpha A ...``
-one row per weight of the pull toward the open-loop lengths (``refine(..., alpha=A)``).
+one row per weight of the pull toward the open-loop lengths (``refine(..., alpha=A)``);
+``--reparametrize N ...`` one row per number of rounds of Ŝ re-parametrized in the
+realized metric (``refine(..., reparametrize=N)``; 0: Ŝ as designed). "to Ŝ's
+surface": the refined face's RMS distance from the nearest points of the designed
+Ŝ (its shape, whatever the parametrization); "Ŝ moved": how far the rounds moved
+Ŝ's points along it (RMS).
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
@@ -34,6 +42,7 @@ sys.path.insert(0, str(HERE))
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 from check.refinement import refine  # noqa: E402
+from design.closest_point import MeshProjector  # noqa: E402
 from design.presets import PRESETS  # noqa: E402
 
 
@@ -48,29 +57,41 @@ def main(argv=None) -> int:
                     help="defect corrections of the coarse level (one row each)")
     ap.add_argument("--alpha", type=float, nargs="+", default=[None],
                     help="weights of the pull toward the open-loop lengths (one row each; default: refine's)")
+    ap.add_argument("--reparametrize", type=int, nargs="+", default=[None],
+                    help="rounds of Ŝ re-parametrized in the realized metric (one row each; default: refine's)")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
-    print("| preset | mattress (mm) | GN mesh (mm) | corrections | alpha | open loop RMS mm (% diag) | refined RMS mm (% diag) "
-          "| max mm before / after | iterations | converged | refine (s) | one inflation (s) "
-          "| verification (s) | ratio | dropped / flagged |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| preset | mattress (mm) | GN mesh (mm) | corrections | alpha | re-param rounds | open loop RMS mm (% diag) "
+          "| refined RMS mm (% diag) | refined, to Ŝ's surface mm (% diag) | max mm before / after | iterations "
+          "| converged | refine (s) | one inflation (s) | verification (s) | ratio | dropped / flagged "
+          "| Ŝ moved (mm RMS) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names:
         design = designed_preset(name)
         m = design.mattress
-        runs = [(c, n, a) for c in args.coarsest_mm for n in args.corrections for a in args.alpha if c > 0 or n == 0]
-        for coarsest, n, alpha in runs:
+        surface = MeshProjector(design.approx.xyz, design.approx.faces)
+        diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
+        runs = [(c, n, a, k) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
+                for k in args.reparametrize if c > 0 or n == 0]
+        for coarsest, n, alpha, rounds in runs:
             kw = {} if alpha is None else {"alpha": alpha}
+            kw.update({} if rounds is None else {"reparametrize": rounds})
             r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter, coarsest=coarsest * MM,
                        corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
             gn = r.coarse_resolution if r.coarse_resolution is not None else r.resolution
+            near = surface.closest_extended(a.aligned).distance
+            to_surface = float(np.sqrt(np.mean(near ** 2)))
+            moved = "–" if r.reparametrization is None else f"{r.reparametrization.moved_rms / MM:.1f}"
             print(f"| {name} | {m.width / MM:.0f} × {m.height / MM:.0f} | {gn / MM:g} | {len(r.corrections)} "
-                  f"| {r.alpha:g} "
+                  f"| {r.alpha:g} | {r.reparametrize_rounds} "
                   f"| {b.rms / MM:.1f} "
-                  f"({b.rms_pct_diag:.2f}) | {a.rms / MM:.1f} ({a.rms_pct_diag:.2f}) | {b.max / MM:.1f} / "
+                  f"({b.rms_pct_diag:.2f}) | {a.rms / MM:.1f} ({a.rms_pct_diag:.2f}) "
+                  f"| {to_surface / MM:.1f} ({100 * to_surface / diag:.2f}) | {b.max / MM:.1f} / "
                   f"{a.max / MM:.1f} | {r.iterations} | {'yes' if r.converged else 'no'} | {r.seconds:.1f} "
                   f"| {r.inflation_seconds:.1f} | {r.verification_seconds:.1f} "
-                  f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} |", flush=True)
+                  f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |",
+                  flush=True)
     return 0
 
 

@@ -76,7 +76,9 @@ def _refine_line(r) -> str:
     dropped = f", {len(r.dropped)} string{'' if len(r.dropped) == 1 else 's'} dropped" if r.dropped else ""
     return (f"  refinement   RMS {b.rms * 1e3:.1f} -> {a.rms * 1e3:.1f} mm ({b.rms_pct_diag:.2f} -> "
             f"{a.rms_pct_diag:.2f}% of the diagonal), {r.iterations} Gauss-Newton iterations, "
-            f"{'converged' if r.converged else 'NOT CONVERGED'}{dropped}")
+            + ("" if r.reparametrization is None else
+               f"Ŝ's points moved {r.reparametrization.moved_rms * 1e3:.1f} mm RMS along it, ")
+            + f"{'converged' if r.converged else 'NOT CONVERGED'}{dropped}")
 
 
 def _published(cal, staged: Path, out: Path):

@@ -62,6 +62,9 @@ def add_parser(sub, parents):
     p.add_argument("--refine-regularization", type=float, default=None, metavar="ALPHA",
                    help="with --refine: weight of the pull toward the open-loop lengths (see 'airmat refine "
                         "--regularization'; default 1e-3)")
+    p.add_argument("--refine-reparametrize", type=int, default=None, metavar="N",
+                   help="with --refine: rounds of the surface's points moved to where the refined mattress puts "
+                        "them (see 'airmat refine --reparametrize'; default 1)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
                         "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
@@ -185,8 +188,9 @@ def run(args) -> int:
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     if args.refine and not (args.refine_resolution_mm > 0):
         raise InputError(f"--refine-resolution-mm must be > 0, got {args.refine_resolution_mm!r}")
-    from airmat.cli.refine import check_corrections, check_regularization, refine_options
+    from airmat.cli.refine import check_corrections, check_regularization, check_rounds, refine_options
     check_regularization("--refine-regularization", args.refine_regularization)
+    check_rounds("--refine-reparametrize", args.refine_reparametrize)
     check_corrections("--refine-defect-corrections", args.refine_defect_corrections, args.refine_single_level,
                       "--refine-single-level")
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
@@ -198,7 +202,7 @@ def run(args) -> int:
 
         refinement = refine(result, resolution=args.refine_resolution_mm * MM,
                             **refine_options(args.refine_defect_corrections, args.refine_regularization,
-                                             args.refine_single_level))
+                                             args.refine_single_level, args.refine_reparametrize))
         result = refinement.design
         failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:

@@ -28,6 +28,10 @@ def add_parser(sub, parents):
                    help="weight of the pull toward the open-loop lengths, alpha * mean((l* - l*_open)^2) beside "
                         "the mean squared deviation (default 1e-3: a 32 mm change of every string costs as much "
                         "as 1 mm RMS)")
+    p.add_argument("--reparametrize", type=int, default=None, metavar="N",
+                   help="rounds of the surface's points moved along it to where the refined mattress puts them "
+                        "(the metric its face realizes), each followed by more iterations; 0 keeps the surface's "
+                        "points as designed (default 1; the iterations are split evenly)")
     p.set_defaults(func=run)
 
 
@@ -48,10 +52,12 @@ def run(args) -> int:
         raise InputError(f"--max-iter must be >= 1, got {args.max_iter}")
     check_corrections("--defect-corrections", args.defect_corrections, args.single_level, "--single-level")
     check_regularization("--regularization", args.regularization)
+    check_rounds("--reparametrize", args.reparametrize)
     design = read_design(args.design)
     check_refinable(design, args.resolution_mm * MM)
     refinement = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
-                        **refine_options(args.defect_corrections, args.regularization, args.single_level))
+                        **refine_options(args.defect_corrections, args.regularization, args.single_level,
+                                         args.reparametrize))
     with staged(args.out) as tmp:
         write_design(refinement.design, tmp)
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
@@ -62,6 +68,8 @@ def run(args) -> int:
           f"({b['deviation_before']['rms_pct_diag']:.2f} -> {b['deviation_after']['rms_pct_diag']:.2f} % of the "
           f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}"
           + (f"; {b['defect_corrections']} defect correction(s)" if b["defect_corrections"] else ""))
+    if b["reparametrization"] is not None:
+        print(f"  {reparametrized_line(b['reparametrization'])}")
     return not_converged("refine", refine_not_converged(refinement))
 
 
@@ -79,11 +87,26 @@ def check_regularization(option: str, alpha: float | None) -> None:
         raise InputError(f"{option} must be a positive number, got {alpha!r}")
 
 
-def refine_options(corrections: int, alpha: float | None, single_level: bool) -> dict:
+def check_rounds(option: str, n: int | None) -> None:
+    """Refuse a negative number of re-parametrization rounds (None: refine's default)."""
+    if n is not None and n < 0:
+        raise InputError(f"{option} must be >= 0, got {n}")
+
+
+def reparametrized_line(block: dict) -> str:
+    """One line on Ŝ's re-parametrization (the ``reparametrization`` of a refine block, mm)."""
+    return (f"surface points moved {block['moved_rms_mm']:.1f} mm RMS along it (at most {block['moved_max_mm']:.1f} "
+            f"mm; {block['off_surface_rms_mm']:.2f} mm RMS off it) to where the refined mattress puts them; the "
+            f"open-loop lengths are {block['deviation_before']['rms_pct_diag']:.2f} % of the diagonal from it")
+
+
+def refine_options(corrections: int, alpha: float | None, single_level: bool, reparametrize: int | None = None) -> dict:
     """The keyword arguments of :func:`check.refinement.refine` that the command-line options set."""
     kw = {"corrections": corrections}
     if alpha is not None:
         kw["alpha"] = alpha
+    if reparametrize is not None:
+        kw["reparametrize"] = reparametrize
     if single_level:
         kw["coarsest"] = 0.0
     return kw

@@ -152,6 +152,28 @@ def test_the_check_takes_the_verification_as_its_median_run_only_when_it_is_that
     assert r.verification.stands_for(design_strings(r.design), r.verification.inflation.mesh, Parameters(), 1e-6)
 
 
+def test_the_refined_design_carries_s_hat_reparametrized_and_none_keeps_it_as_designed(case, refined):
+    # by default one round moves Ŝ's points along Ŝ into the metric the face realizes (check.reparametrize);
+    # the refined design carries that Ŝ, which the check compared with above (the deviation it reproduces)
+    r = refined
+    rep = r.reparametrization
+    assert r.reparametrize_rounds == 1 and rep is not None
+    np.testing.assert_array_equal(r.design.approx.xyz, rep.xyz)
+    moved = np.linalg.norm(rep.xyz - case.approx.xyz, axis=1)
+    assert rep.moved_max == pytest.approx(moved.max()) and 0 < rep.moved_max < 0.01
+    assert rep.off_rms < 0.1 * rep.moved_rms               # along Ŝ, not off it (measured 0.05 against 0.8 mm)
+    b = r.design.refine["reparametrization"]
+    assert b["rounds"] == 1 and b["moved_max_mm"] == pytest.approx(rep.moved_max * 1e3, abs=1e-3)
+    assert b["deviation_before"]["rms_mm"] == pytest.approx(r.deviation_before_reparametrized.rms * 1e3, abs=1e-3)
+    # 0 rounds: Ŝ as designed, and nothing about it in the block
+    r0 = refine(case, resolution=RESOLUTION, max_iter=6, reparametrize=0)
+    np.testing.assert_array_equal(r0.design.approx.xyz, case.approx.xyz)
+    assert r0.reparametrization is None and r0.design.refine["reparametrization"] is None
+    assert r0.iterations == 6 and r0.deviation_after.rms < r0.deviation_before.rms
+    with pytest.raises(InputError, match="reparametrize must be 0 or more"):
+        refine(case, resolution=RESOLUTION, reparametrize=-1)
+
+
 def test_the_checks_tolerance_is_the_inflations_default():
     import inspect
 
@@ -168,6 +190,8 @@ def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
     assert set(doc["refine"]["deviation_after"]) >= {"rms_mm", "rms_pct_diag"}
     back = read_design(tmp_path)
     assert back.refine == doc["refine"]
+    # Ŝ as the refinement left it (re-parametrized), float32 mm in approx_surface.ply
+    np.testing.assert_allclose(back.approx.xyz, refined.design.approx.xyz, atol=1e-5)
     got = [s.l_median for s in back.pattern.strings]
     np.testing.assert_allclose(got, [s.l_median for s in refined.design.pattern.strings], atol=1e-5)
 
@@ -208,6 +232,13 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     assert doc["refine"]["alpha"] == 1e-3                   # refine's default
     assert doc["refine"]["deviation_after"]["rms_mm"] < doc["refine"]["deviation_before"]["rms_mm"]
     assert (out / "cutting_list.csv").is_file()
+    # 'airmat inflate' on the folder (the re-parametrized Ŝ read back from approx_surface.ply) keeps the promise
+    assert doc["refine"]["reparametrization"]["moved_rms_mm"] > 0
+    assert "surface points moved" in capsys.readouterr().out
+    assert main(["inflate", "-q", str(out), "--out", str(tmp_path / "inf"), "--resolution-mm", "40",
+                 "--no-envelope"]) == 0
+    inf = json.loads((tmp_path / "inf" / "inflate.json").read_text())
+    assert inf["deviation"]["rms_mm"] == pytest.approx(doc["refine"]["deviation_after"]["rms_mm"], abs=0.011)
     # --single-level: every iteration at the target resolution (no coarse mesh in the block)
     one = tmp_path / "one"
     code = main(["refine", "-q", str(src), "--out", str(one), "--resolution-mm", "20", "--max-iter", "2",
@@ -223,6 +254,7 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     (["--regularization", "0"], "--regularization must be a positive number, got 0.0"),
     (["--regularization", "nan"], "--regularization must be a positive number, got nan"),
     (["--regularization=-1e-3"], "--regularization must be a positive number, got -0.001"),
+    (["--reparametrize", "-1"], "--reparametrize must be >= 0, got -1"),
 ])
 def test_cli_refine_bad_corrections_exit_2_and_write_nothing(case, tmp_path, capsys, argv, words):
     src = tmp_path / "design"
@@ -245,6 +277,11 @@ def test_cli_design_refine_bad_corrections_exit_2_and_write_nothing(tmp_path, ca
     assert code == 2 and not out.exists()
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--refine-regularization must be a positive number, got inf" in err[0]
+    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-reparametrize", "-1",
+                 "--out", str(out)])
+    assert code == 2 and not out.exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--refine-reparametrize must be >= 0, got -1" in err[0]
 
 
 def test_a_defect_correction_makes_the_coarse_face_fit_the_fine_one(case):
