@@ -8,6 +8,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets saddle --corrections 0 1    # with a defect correction
     .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --alpha 1e-2 1e-3   # the regularization
     .venv/bin/python bench/bench_refine.py --presets all --reparametrize 0 1   # Ŝ as designed vs re-parametrized
+    .venv/bin/python bench/bench_refine.py --presets saddle vault1 --reparametrize 0 1 --draws 8   # path spread
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -25,6 +26,12 @@ realized metric (``refine(..., reparametrize=N)``; 0: Ŝ as designed). "to Ŝ's
 surface": the refined face's RMS distance from the nearest points of the designed
 Ŝ (its shape, whatever the parametrization); "Ŝ moved": how far the rounds moved
 Ŝ's points along it (RMS).
+
+``--draws K`` measures how much the outcome depends on the Gauss–Newton path: K
+refinements of the same design, the first at its own lengths and the others with every
+open-loop real length moved by a uniform draw in ±``--jitter-um`` (5 µm by default, the
+0.01 mm rounding of design.json; seeds 1 … K−1), and one row per preset and setting with
+the spread of the refined deviation.
 """
 
 from __future__ import annotations
@@ -59,8 +66,13 @@ def main(argv=None) -> int:
                     help="weights of the pull toward the open-loop lengths (one row each; default: refine's)")
     ap.add_argument("--reparametrize", type=int, nargs="+", default=[None],
                     help="rounds of Ŝ re-parametrized in the realized metric (one row each; default: refine's)")
+    ap.add_argument("--draws", type=int, default=1,
+                    help="refinements per setting, all but the first with the lengths jittered (a spread table)")
+    ap.add_argument("--jitter-um", type=float, default=5.0, help="half-width of the length jitter (µm)")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
+    if args.draws > 1:
+        return spread(names, args)
     print("| preset | mattress (mm) | GN mesh (mm) | corrections | alpha | re-param rounds | open loop RMS mm (% diag) "
           "| refined RMS mm (% diag) | refined, to Ŝ's surface mm (% diag) | max mm before / after | iterations "
           "| converged | refine (s) | one inflation (s) | verification (s) | ratio | dropped / flagged "
@@ -92,6 +104,39 @@ def main(argv=None) -> int:
                   f"| {r.inflation_seconds:.1f} | {r.verification_seconds:.1f} "
                   f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |",
                   flush=True)
+    return 0
+
+
+def jittered(design, seed: int, half_width: float):
+    """``design`` with every string's real lengths moved by one uniform draw in ±half_width (m); seed 0: itself."""
+    import dataclasses
+
+    if seed == 0:
+        return design
+    shift = np.random.default_rng(seed).uniform(-half_width, half_width, len(design.pattern.strings))
+    strings = tuple(dataclasses.replace(s, l_median=s.l_median + e, l_lo95=s.l_lo95 + e, l_hi95=s.l_hi95 + e)
+                    for s, e in zip(design.pattern.strings, shift))
+    return dataclasses.replace(design, pattern=dataclasses.replace(design.pattern, strings=strings))
+
+
+def spread(names, args) -> int:
+    """One row per preset and setting: the refined deviation over ``args.draws`` jittered refinements."""
+    print(f"| preset | alpha | re-param rounds | draws (±{args.jitter_um:g} µm) | refined % diag: median | min – max "
+          "| ≤ 1 % | converged | refined % diag, each draw |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name in names:
+        design = designed_preset(name)
+        for alpha in args.alpha:
+            for rounds in args.reparametrize:
+                kw = {} if alpha is None else {"alpha": alpha}
+                kw.update({} if rounds is None else {"reparametrize": rounds})
+                rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
+                             max_iter=args.max_iter, **kw) for k in range(args.draws)]
+                pct = np.array([r.deviation_after.rms_pct_diag for r in rs])
+                print(f"| {name} | {rs[0].alpha:g} | {rs[0].reparametrize_rounds} | {args.draws} | {np.median(pct):.2f} "
+                      f"| {pct.min():.2f} – {pct.max():.2f} | {int(np.sum(pct <= 1.0))} / {len(pct)} "
+                      f"| {sum(r.converged for r in rs)} / {len(rs)} | {' '.join(f'{p:.2f}' for p in pct)} |",
+                      flush=True)
     return 0
 
 
