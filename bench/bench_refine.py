@@ -86,8 +86,7 @@ def main(argv=None) -> int:
         runs = [(c, n, a, k) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
                 for k in args.reparametrize if c > 0 or n == 0]
         for coarsest, n, alpha, rounds in runs:
-            kw = {} if alpha is None else {"alpha": alpha}
-            kw.update({} if rounds is None else {"reparametrize": rounds})
+            kw = _options(alpha, rounds)
             r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter, coarsest=coarsest * MM,
                        corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
@@ -105,6 +104,11 @@ def main(argv=None) -> int:
                   f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |",
                   flush=True)
     return 0
+
+
+def _options(alpha, rounds) -> dict:
+    """refine()'s keyword arguments for a row: its own defaults where the option is None."""
+    return {k: v for k, v in (("alpha", alpha), ("reparametrize", rounds)) if v is not None}
 
 
 def jittered(design, seed: int, half_width: float):
@@ -128,8 +132,7 @@ def spread(names, args) -> int:
         design = designed_preset(name)
         for alpha in args.alpha:
             for rounds in args.reparametrize:
-                kw = {} if alpha is None else {"alpha": alpha}
-                kw.update({} if rounds is None else {"reparametrize": rounds})
+                kw = _options(alpha, rounds)
                 rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
                              max_iter=args.max_iter, **kw) for k in range(args.draws)]
                 pct = np.array([r.deviation_after.rms_pct_diag for r in rs])

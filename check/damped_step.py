@@ -25,7 +25,7 @@ def reduce_least_squares(a, r):
     in BLAS-3 against Householder reflections: 0.12 s against 1.4 s for 30 000 × 250).
     The refinement's ``a`` ends with the Tikhonov rows ``w I``, so its smallest singular value
     is at least ``w`` and squaring its condition number costs no accuracy that matters
-    (``tests/check/test_refine.py`` compares the steps with the tall problem's). Should the
+    (``tests/check/test_refine_solver.py`` compares the steps with the tall problem's). Should the
     Gram matrix still not be positive definite, the thin QR is used.
 
     Parameters

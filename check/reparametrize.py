@@ -124,8 +124,9 @@ def reparametrize(approx_xyz, uv, faces, face_xyz, *, start=None, projector=None
     x0 = np.asarray(approx_xyz, float)
     faces = np.asarray(faces)
     projector = MeshProjector(x0, faces) if projector is None else projector
-    flat = np.linalg.norm(np.diff(np.asarray(uv, float)[mesh_edges(faces)], axis=1)[:, 0], axis=1)
-    rest = flat * realized_ratio(face_xyz, uv, faces)
+    e = mesh_edges(faces)
+    face_xyz = np.asarray(face_xyz, float)
+    rest = np.linalg.norm(face_xyz[e[:, 1]] - face_xyz[e[:, 0]], axis=1)        # the face's own edge lengths
     x, it, converged, _, _ = relax_from(x0 if start is None else start, uv, faces, projector, rest=rest, max_iter=max_iter)
     moved = np.linalg.norm(x - x0, axis=1)
     off = projector.closest_extended(x).distance

@@ -157,6 +157,9 @@ def summary_text(doc: dict, out) -> str:
     flagged = sum(1 for d in doc["dashes"] if "beyond_reach" in d["flags"])
     if flagged:
         lines.append(f"  {flagged} strings beyond reach of the calibration (flagged in design.json)")
+    if doc.get("refine"):
+        from airmat.cli.refine import refine_lines
+        lines.extend(refine_lines(doc["refine"]))
     lines.append(f"  wrote design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, cutting_list.csv, "
                  f"preview.png, design.3dm, report.html to {out}")
     return "\n".join(lines)

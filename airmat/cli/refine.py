@@ -61,15 +61,7 @@ def run(args) -> int:
     with staged(args.out) as tmp:
         write_design(refinement.design, tmp)
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
-    b = refinement.block()
-    print(f"airmat refine: {design.name} -> {args.out}")
-    print(f"  refined in {b['iterations']} iterations, {b['seconds']:.1f} s: named face RMS "
-          f"{b['deviation_before']['rms_mm']:.1f} -> {b['deviation_after']['rms_mm']:.1f} mm "
-          f"({b['deviation_before']['rms_pct_diag']:.2f} -> {b['deviation_after']['rms_pct_diag']:.2f} % of the "
-          f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}"
-          + (f"; {b['defect_corrections']} defect correction(s)" if b["defect_corrections"] else ""))
-    if b["reparametrization"] is not None:
-        print(f"  {reparametrized_line(b['reparametrization'])}")
+    print("\n".join([f"airmat refine: {design.name} -> {args.out}", *refine_lines(refinement.block())]))
     return not_converged("refine", refine_not_converged(refinement))
 
 
@@ -93,11 +85,19 @@ def check_rounds(option: str, n: int | None) -> None:
         raise InputError(f"{option} must be >= 0, got {n}")
 
 
-def reparametrized_line(block: dict) -> str:
-    """One line on Ŝ's re-parametrization (the ``reparametrization`` of a refine block, mm)."""
-    return (f"surface points moved {block['moved_rms_mm']:.1f} mm RMS along it (at most {block['moved_max_mm']:.1f} "
-            f"mm; {block['off_surface_rms_mm']:.2f} mm RMS off it) to where the refined mattress puts them; the "
-            f"open-loop lengths are {block['deviation_before']['rms_pct_diag']:.2f} % of the diagonal from it")
+def refine_lines(b: dict) -> list[str]:
+    """The lines on stdout for a refine block of design.json (mm, %): deviation before / after, Ŝ's round."""
+    lines = [f"  refined in {b['iterations']} iterations, {b['seconds']:.1f} s: named face RMS "
+             f"{b['deviation_before']['rms_mm']:.1f} -> {b['deviation_after']['rms_mm']:.1f} mm "
+             f"({b['deviation_before']['rms_pct_diag']:.2f} -> {b['deviation_after']['rms_pct_diag']:.2f} % of the "
+             f"diagonal); dropped {len(b['dropped'])}, flagged {len(b['flagged'])}"
+             + (f"; {b['defect_corrections']} defect correction(s)" if b["defect_corrections"] else "")]
+    r = b["reparametrization"]
+    if r is not None:
+        lines.append(f"  surface points moved {r['moved_rms_mm']:.1f} mm RMS along it (at most {r['moved_max_mm']:.1f} "
+                     f"mm; {r['off_surface_rms_mm']:.2f} mm RMS off it) to where the refined mattress puts them; the "
+                     f"open-loop lengths are {r['deviation_before']['rms_pct_diag']:.2f} % of the diagonal from it")
+    return lines
 
 
 def refine_options(corrections: int, alpha: float | None, single_level: bool, reparametrize: int | None = None) -> dict:

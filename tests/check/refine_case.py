@@ -19,6 +19,8 @@ RESOLUTION = 0.04
 A = np.array([[0.08, 0.1], [0.08, 0.2], [0.08, 0.3]])
 B = np.array([[0.42, 0.1], [0.42, 0.2], [0.42, 0.3]])
 TRUE_SIM = np.array([0.30, 0.28, 0.305])
+#: open-loop lengths off the true ones (all shorter: every string stays taut)
+OFF = np.array([-0.012, -0.006, -0.015])
 
 
 def small_design(sim_lengths, *, true_sim=TRUE_SIM, n_samples=200):
@@ -40,3 +42,9 @@ def small_design(sim_lengths, *, true_sim=TRUE_SIM, n_samples=200):
     pattern = Pattern(strings=strings, L=0.34, n_dashes={"k1": 3, "k2": 0}, n_no_string={"k1": 0, "k2": 0})
     return DesignResult(name="small", approx=approx, pattern=pattern, calibration=cal,
                         params=DesignParams(L=0.34), seed=0)
+
+
+
+def off_case():
+    """A design whose open-loop lengths are OFF from the ones that made its Ŝ (the modules' ``case`` fixture)."""
+    return small_design(TRUE_SIM + OFF)
