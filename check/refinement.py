@@ -11,11 +11,9 @@ at their open-loop length instead of drifting, and the Gauss–Newton matrix
 stays regular. ``alpha = 1e-3`` (the default) costs a 32 mm change of every
 string as much as 1 mm of RMS deviation (refined strings change by tens of
 mm: −45 to +12 mm on the saddle). Measured at 20 mm (README,
-``bench/bench_refine.py --alpha``): against 1e-2 it takes the saddle from 1.55
-to 1.29 % of the diagonal, the lowest of the five weights tried, and vault1 lands
-at 0.71–0.74 % whatever the weight; the outcome moves irregularly with
-``alpha`` on the saddle and the dome (each weight leads the iterations to
-another local optimum).
+``bench/bench_refine.py --alpha``, with the re-parametrization round): the
+saddle 0.87 % of the diagonal (as at 3e-4 and 1e-4; 0.89 % at 3e-3 and 1e-2),
+vault1 0.62 % (0.60 % at 3e-4, 0.70–0.72 % at the others).
 
 Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region
 (:mod:`check.gauss_newton`; the trial solves in :mod:`check.trial_equilibrium`). The
@@ -31,10 +29,11 @@ on the tall matrix, in a fraction of the time on the large mattress), and a
 trial's model rebuilds only the strings' term
 (:func:`inflation.model.with_strings`). Bounds: from the
 shortest a tie allows (real l = 0, through the length map) to the string's
-flat span (no bend). Stopping rule: over an accepted step the model
-predicted well (ρ > 0.25), a decrease of the RMS below ``rms_tol`` or a
-relative decrease of the objective below ``ftol``; or a step shorter than
-``xtol`` × the mean span.
+flat span (no bend). A step is taken only when it realizes more than a
+quarter of the decrease its model predicted (ρ > 0.25,
+:data:`check.gauss_newton.ACCEPT`). Stopping rule: over an accepted step, a
+decrease of the RMS below ``rms_tol`` or a relative decrease of the objective
+below ``ftol``; or a step shorter than ``xtol`` × the mean span.
 
 Two levels: a trial equilibrium costs tens of Newton iterations (the
 wrinkles rearrange), and at 20 mm that made the refinement 13 inflations

@@ -188,3 +188,50 @@ def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
     fresh = inflate(cmesh, s)
     assert start.converged and start.n_iter < fresh.n_iter
     assert np.max(np.abs(start.xyz - fresh.xyz)) < 1e-6     # m: the same equilibrium
+
+
+class _Overshoot:
+    """A one-string stand-in for a TrialProblem: the face's residual r(l) = l + a l² - c, the equilibrium x = l.
+
+    From l = 0 the Gauss–Newton step is c, where r = a c²: it realizes 1 - a²c² of the decrease its
+    linear model predicts (0.0975 for a = 0.95, c = 1), a little gain for a long step."""
+
+    mesh_label = "a stand-in"
+
+    def __init__(self, a=0.95, c=1.0):
+        self.a, self.c, self.trials = a, c, []
+
+    def fit(self, x):
+        from types import SimpleNamespace
+        l = x[0, 0]
+        r = np.array([l + self.a * l * l - self.c])
+        return SimpleNamespace(objective=float(r @ r), residual=r)
+
+    def jacobian(self, rest, x):
+        return np.array([[1.0 + 2.0 * self.a * rest[0]]]), np.array([[1.0], [0.0], [0.0]])
+
+    def equilibrium(self, rest, x0, max_newton=None):
+        from types import SimpleNamespace
+        self.trials.append(float(rest[0]))
+        return SimpleNamespace(xyz=np.array([[rest[0], 0.0, 0.0]]), n_iter=1)
+
+
+def test_a_step_that_realizes_under_a_quarter_of_its_predicted_decrease_is_not_taken():
+    # the saddle's first iteration used to accept a 50 mm change of its lengths that realized 1 % of the
+    # predicted decrease (rho 0.01), and the refinement then landed anywhere between 0.89 and 1.26 % of the
+    # diagonal over lengths jittered by 5 µm; a step is now taken only when rho > ACCEPT (0.25)
+    from check.gauss_newton import ACCEPT, gauss_newton
+    prob = _Overshoot()
+    kw = dict(alpha=1e-12, ftol=1e-12, xtol=1e-12, rms_tol=0.0)
+    lo, hi, x0 = np.array([-10.0]), np.array([10.0]), np.zeros((1, 3))
+    one = gauss_newton(prob, np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=1, **kw)
+    first = prob.trials[0]
+    rho_first = (prob.c ** 2 - prob.fit(np.array([[first, 0, 0]])).objective) / prob.c ** 2
+    assert first == pytest.approx(prob.c, rel=1e-2) and 1e-3 < rho_first < ACCEPT   # the near-GN step, poor
+    assert len(prob.trials) > 1 and one["l"][0] < prob.trials[1] < first             # refused, shorter ones tried
+    assert one["iterations"] == 1 and one["l"][0] == prob.trials[-1]
+    # the step taken is shorter and gains more than the refused one
+    assert one["objective_after"] < 0.75 * prob.fit(np.array([[first, 0, 0]])).objective
+    root = (-1.0 + np.sqrt(1.0 + 4.0 * prob.a * prob.c)) / (2.0 * prob.a)
+    done = gauss_newton(_Overshoot(), np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=30, **kw)
+    assert done["converged"] and done["l"][0] == pytest.approx(root, abs=1e-6)
