@@ -27,7 +27,7 @@ import numpy as np
 from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.npz_bytes import npz_bytes
-from airmat.units import MM
+from airmat.units import MM, mm_to_m
 from design.calibration_source import CalibrationSource
 from design.constructibility import ConstructibilityReport
 from design.export.design_json import design_document, read_design_json, write_design_json
@@ -303,7 +303,7 @@ def read_design(folder) -> DesignResult:
     if not path.is_file():
         raise InputError("no design.json here: give the --out folder of 'airmat design'", path=folder)
     doc = read_design_json(path)
-    size = {k: _number(_get(doc, f"mattress.{k}_mm", path), f"mattress.{k}_mm", path) * MM
+    size = {k: mm_to_m(_number(_get(doc, f"mattress.{k}_mm", path), f"mattress.{k}_mm", path))
             for k in ("width", "height", "thickness")}
     if min(size.values()) <= 0:
         raise InputError("mattress sizes must be > 0", path=path)

@@ -8,6 +8,7 @@ import re
 from airmat.cli._ranges import check_range
 from airmat.constants import PAPER_D
 from airmat.errors import InputError
+from airmat.units import mm_to_m
 
 _SIZE = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*[xX×*]\s*(\d+(?:\.\d*)?)\s*$")
 
@@ -79,7 +80,7 @@ def parse_size_mm(text: str) -> tuple[float, float]:
     m = _SIZE.match(text or "")
     if not m or float(m.group(1)) <= 0 or float(m.group(2)) <= 0:
         raise InputError(f"--mattress: expected WIDTHxHEIGHT in mm, e.g. 830x740, got {text!r}")
-    return float(m.group(1)) * 1e-3, float(m.group(2)) * 1e-3
+    return mm_to_m(float(m.group(1))), mm_to_m(float(m.group(2)))
 
 
 def _positive(args, names):
@@ -101,11 +102,11 @@ def _mattress_and_target(args):
     if args.preset is not None:
         target, mattress = preset(args.preset)
         width, height = size if size else (mattress.width, mattress.height)
-        thickness = mattress.thickness if args.thickness_mm is None else args.thickness_mm * 1e-3
+        thickness = mattress.thickness if args.thickness_mm is None else mm_to_m(args.thickness_mm)
         return Mattress(width, height, thickness), lambda: target
     if size is None:
         raise InputError("--mattress WxH (mm) is required with a TARGET file, e.g. --mattress 830x740")
-    thickness = PAPER_D if args.thickness_mm is None else args.thickness_mm * 1e-3
+    thickness = PAPER_D if args.thickness_mm is None else mm_to_m(args.thickness_mm)
     mattress = Mattress(size[0], size[1], thickness)
     return mattress, lambda: load_target(args.target, units=args.units, mattress=mattress)
 

@@ -129,3 +129,14 @@ def test_sigma_samples_round_trip_exactly(vault, tmp_path):
     np.savez(tmp_path / "s" / "calibration_samples.npz", **bad)
     with pytest.raises(InputError, match="sigma_per_m"):
         read_design(tmp_path / "s")
+
+
+def test_a_mattress_read_back_or_typed_in_mm_is_the_presets_number(vault):
+    # 830 * 1e-3 is 0.8300000000000001; the refinement's path is sensitive to that last bit (README)
+    from airmat.cli.design import parse_size_mm
+    from airmat.units import mm_to_m
+    result, folder = vault
+    back = read_design(folder)
+    assert result.mattress.width == 0.83 and back.mattress == result.mattress
+    assert parse_size_mm("830x740") == (0.83, 0.74) and parse_size_mm("2600x1600") == (2.6, 1.6)
+    assert mm_to_m(70) == 0.07 and 830 * 1e-3 != 0.83
