@@ -64,31 +64,17 @@ def test_cli_refine_bad_corrections_exit_2_and_write_nothing(case, tmp_path, cap
     assert len(err) == 1 and words in err[0] and not out.exists()
 
 
-def test_cli_design_refine_bad_corrections_exit_2_and_write_nothing(tmp_path, capsys):
+@pytest.mark.parametrize("argv, words", [
+    (["--refine-defect-corrections", "-2"], "--refine-defect-corrections must be >= 0"),
+    (["--refine-regularization", "inf"], "--refine-regularization must be a positive number, got inf"),
+    (["--refine-reparametrize", "-1"], "--refine-reparametrize must be >= 0, got -1"),
+    (["--refine-resolution-mm", "500"], "too coarse"),
+])
+def test_cli_design_refine_bad_input_exits_2_and_writes_nothing(tmp_path, capsys, argv, words):
     out = tmp_path / "d"
-    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-defect-corrections", "-2",
-                 "--out", str(out)])
-    assert code == 2 and not out.exists()
+    assert main(["design", "-q", "--preset", "vault1", "--refine", *argv, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--refine-defect-corrections must be >= 0" in err[0]
-    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-regularization", "inf",
-                 "--out", str(out)])
-    assert code == 2 and not out.exists()
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--refine-regularization must be a positive number, got inf" in err[0]
-    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-reparametrize", "-1",
-                 "--out", str(out)])
-    assert code == 2 and not out.exists()
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--refine-reparametrize must be >= 0, got -1" in err[0]
-
-
-def test_cli_design_refine_too_coarse_exits_2_and_writes_nothing(tmp_path, capsys):
-    out = tmp_path / "d"
-    code = main(["design", "-q", "--preset", "vault1", "--refine", "--refine-resolution-mm", "500", "--out", str(out)])
-    assert code == 2 and not out.exists()
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "too coarse" in err[0]
+    assert len(err) == 1 and words in err[0] and not out.exists()
 
 
 def test_cli_design_refine_says_what_the_refinement_did(tmp_path, capsys):

@@ -2,6 +2,7 @@
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -202,7 +203,6 @@ class _Overshoot:
         self.a, self.c, self.trials = a, c, []
 
     def fit(self, x):
-        from types import SimpleNamespace
         l = x[0, 0]
         r = np.array([l + self.a * l * l - self.c])
         return SimpleNamespace(objective=float(r @ r), residual=r)
@@ -211,7 +211,6 @@ class _Overshoot:
         return np.array([[1.0 + 2.0 * self.a * rest[0]]]), np.array([[1.0], [0.0], [0.0]])
 
     def equilibrium(self, rest, x0, max_newton=None):
-        from types import SimpleNamespace
         self.trials.append(float(rest[0]))
         return SimpleNamespace(xyz=np.array([[rest[0], 0.0, 0.0]]), n_iter=1)
 
