@@ -27,7 +27,7 @@ import numpy as np
 
 from airmat.errors import InputError
 
-__all__ = ["bend_angle", "kappa1", "string_length", "kappa_max", "flat_length"]
+__all__ = ["bend_angle", "polygon_side", "kappa1", "string_length", "kappa_max", "flat_length"]
 
 _MAX_ITER = 80
 
@@ -120,6 +120,22 @@ def bend_angle(l, L, delta, d):
     if np.any(bent):
         theta[bent] = _solve_theta(l[bent], L[bent], delta[bent], d[bent])
     return theta
+
+
+def polygon_side(l, L, delta, d):
+    """The side L* = L - (pi - theta) d of Equation 3's polygon (m): the span less what the wrinkles take.
+
+    Parameters
+    ----------
+    l, L, delta, d : array_like
+        As in :func:`bend_angle` (m).
+
+    Returns
+    -------
+    ndarray
+        L* (m); L where the mattress stays flat.
+    """
+    return _lstar(bend_angle(l, L, delta, d), np.asarray(L, float), np.asarray(d, float))
 
 
 def kappa1(l, L, delta, d):

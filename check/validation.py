@@ -28,11 +28,21 @@ both: Equation 3's κ₁ = 2 cos(θ/2) / L* (string face, circumscribed
 circle) and the free face's mean curvature (π − θ) / L (its length per
 string stays L and turns by π − θ).
 
-The strip is 3 L + 2 margins long (1 m at L = 300 mm; three folds per row),
-so by the model it turns 290° at l/L = 0.4 and less above; the measured
-turn of the free face is reported, and a strip that turns ≥ 330° (it would
-touch itself; the simulator has no self-contact) is flagged ``closes``.
-SI units.
+``fold_geometry`` takes the polygon apart: its sides (fold to fold) and
+its interior angles, against Equation 3's L* and θ. Where κ₁ differs from
+Equation 3 this says whether the wrinkles take another share of the span
+than (π − θ) d or the folds another angle (at l/L = 0.4 both: sides 12 %
+longer than L*, angles 5° wider, at 40 mm).
+
+The strip is 3 L + 2 margins long (1 m at L = 300 mm; three folds per row,
+the fewest the polygon's circle needs), so by the model it turns 290° at
+l/L = 0.4 and less above; the measured turn of the free face is reported,
+and a strip that turns ≥ 330° (it would touch itself; the simulator has no
+self-contact) is flagged ``closes``. The missing contact does not change
+the folds: at 20 mm strips of 3, 4 and 5 strings read 7.07, 6.98 and 6.93
+1/m at l/L = 0.4 (turning 398°, 523° and 652°; ``bench/bench_specimen.py``).
+At l/L = 0.9 the longer strips read closer (−7.9, −2.9, +1.0 %): the three-string
+strip's one inner fold is flatter (161.0° against θ = 159.2°). SI units.
 """
 
 from __future__ import annotations
@@ -44,7 +54,7 @@ import numpy as np
 
 from airmat.constants import PAPER_D, PAPER_L
 from airmat.figures import new_figure
-from calib.model import bend_angle, kappa1
+from calib.model import bend_angle, kappa1, polygon_side
 from check.compare import menger_signed, surface_at
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
@@ -52,7 +62,8 @@ from inflation.simulate import inflate_many
 from inflation.strings import StringSet
 
 __all__ = ["SpecimenLayout", "specimen_strings", "specimen_kappa", "ValidationPoint", "validate_equation3",
-           "validation_figure", "polygon_curvature", "section_curvature", "turn_angle", "CLOSES_DEG"]
+           "validation_figure", "polygon_curvature", "fold_geometry", "section_curvature", "turn_angle",
+           "CLOSES_DEG"]
 
 log = logging.getLogger(__name__)
 
@@ -109,15 +120,42 @@ def polygon_curvature(inf, layout: SpecimenLayout) -> np.ndarray:
     ndarray of shape (n_rows * (n_series - 2),)
         One signed curvature per inner fold (positive: bends away from the top).
     """
+    xyz, up = _folds(inf, layout)
+    p, m, q = (a.reshape(-1, 3) for a in (xyz[:, :-2], xyz[:, 1:-1], xyz[:, 2:]))
+    return menger_signed(p, m, q, up[:, 1:-1].reshape(-1, 3))
+
+
+def _folds(inf, layout: SpecimenLayout):
+    """The polygon's vertices on the string face, (n_rows, n_series, 3), and the face's normals there."""
     if layout.n_series < 3:
         raise ValueError(f"the polygon's circle needs three folds per row: n_series >= 3, got {layout.n_series}")
     s = specimen_strings(layout, layout.L)
-    n = layout.n_series
-    folds = (0.5 * (s.a + s.b)).reshape(layout.n_rows, n, 2)        # the polygon's vertices
-    p, m, q = folds[:, :-2].reshape(-1, 2), folds[:, 1:-1].reshape(-1, 2), folds[:, 2:].reshape(-1, 2)
-    xyz, up = surface_at(inf, np.concatenate([p, m, q]), "bottom")
-    k = len(p)
-    return menger_signed(xyz[:k], xyz[k:2 * k], xyz[2 * k:], up[k:2 * k])
+    folds = 0.5 * (s.a + s.b)                                       # under the strings' middles
+    xyz, up = surface_at(inf, folds, "bottom")
+    shape = (layout.n_rows, layout.n_series, 3)
+    return xyz.reshape(shape), up.reshape(shape)
+
+
+def fold_geometry(inf, layout: SpecimenLayout):
+    """The polygon of :func:`polygon_curvature` taken apart: its sides and its angles.
+
+    Equation 3's κ₁ = 2 cos(θ/2) / L* is the circle through the folds of a
+    polygon of side L* = L − (π − θ) d and interior angle θ
+    (:func:`calib.model.polygon_side`, :func:`calib.model.bend_angle`); these
+    are the simulated ones, to tell which of the two a difference comes from.
+
+    Returns
+    -------
+    side : ndarray of shape (n_rows * (n_series - 1),)
+        Distances between consecutive folds on the string face (m).
+    angle : ndarray of shape (n_rows * (n_series - 2),)
+        Interior angle at each inner fold (rad).
+    """
+    xyz, _ = _folds(inf, layout)
+    side = np.linalg.norm(np.diff(xyz, axis=1), axis=2)
+    a, b = xyz[:, :-2] - xyz[:, 1:-1], xyz[:, 2:] - xyz[:, 1:-1]
+    cos = np.einsum("rkd,rkd->rk", a, b) / (side[:, :-1] * side[:, 1:])
+    return side.reshape(-1), np.arccos(np.clip(cos, -1.0, 1.0)).reshape(-1)
 
 
 def turn_angle(inf, layout: SpecimenLayout, n: int = 86) -> float:
@@ -160,6 +198,10 @@ class ValidationPoint:
         :func:`turn_angle`.
     l_sim_over_L : float
         The simulated rest length l*/L (l/L without a length map).
+    fold_side, fold_angle : float
+        Mean side (m) and inner interior angle (rad) of the simulated polygon (:func:`fold_geometry`).
+    model_side, model_angle : float
+        Equation 3's L* (m) and θ (rad) at this l (with ``delta``, ``d``).
     """
 
     l_over_L: float
@@ -176,6 +218,10 @@ class ValidationPoint:
     kappa_eq3_free: float = float("nan")
     turn_deg: float = float("nan")
     l_sim_over_L: float = float("nan")
+    fold_side: float = float("nan")
+    fold_angle: float = float("nan")
+    model_side: float = float("nan")
+    model_angle: float = float("nan")
 
     @property
     def closes(self) -> bool:
@@ -218,9 +264,10 @@ def specimen_kappa(l_sim, *, layout: SpecimenLayout = SpecimenLayout(), resoluti
     The cross-section circles of the string face (:func:`section_curvature`): the
     calibration's κ₁ comes from cylinders fitted to scans of specimens, and the
     paper measured "the curvature of the cross-sectional circles". (The circle
-    through the folds, :func:`polygon_curvature`, barely grows below l/L ≈ 0.4,
-    where a three-string strip closes on itself: 7.5 1/m at l/L = 0.3 at 20 mm,
-    short of a calibrated κ₁ of 7.9 there.)
+    through the folds, :func:`polygon_curvature`, barely grows below l/L ≈ 0.4:
+    7.5 1/m at l/L = 0.3 at 20 mm, short of a calibrated κ₁ of 7.9 there. There
+    the simulated folds lie further apart than Equation 3's L* and fold less than
+    its θ, :func:`fold_geometry`, whatever the strip's length.)
 
     Parameters
     ----------
@@ -286,15 +333,18 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         k, se = section_curvature(inf, layout, "bottom")
         kf, sef = section_curvature(inf, layout, "top")
         k3 = float(kappa1(l, layout.L, delta, d))
-        k3_free = float((np.pi - bend_angle(l, layout.L, delta, d)) / layout.L)
+        theta = float(bend_angle(l, layout.L, delta, d))
+        k3_free = (np.pi - theta) / layout.L
         kp = float(np.mean(polygon_curvature(inf, layout)))
+        side, angle = fold_geometry(inf, layout)
         turn = turn_angle(inf, layout)
         log.info("l/L = %.2f (simulated l*/L = %.3f): string face %.2f 1/m (polygon), %.2f (sections); free face "
                  "%.2f (sections); Equation 3 (Delta = %.1f mm) %.2f, free face %.2f; turns %.0f deg", r,
                  ls / layout.L, kp, k, kf, delta * 1e3, k3, k3_free, turn)
         points.append(ValidationPoint(float(r), float(k), float(se), k3, kp, inf.converged, inf.n_iter,
                                       inf.seconds, inf.message, float(kf), float(sef), k3_free, turn,
-                                      float(ls / layout.L)))
+                                      float(ls / layout.L), float(np.mean(side)), float(np.mean(angle)),
+                                      float(polygon_side(l, layout.L, delta, d)), theta))
     return points
 
 

@@ -34,10 +34,13 @@ def add_parser(sub, parents):
 
 _COLUMNS = ("l_over_L", "l_sim_over_L", "kappa_polygon_per_m", "kappa_eq3_per_m", "kappa_section_string_face_per_m",
             "kappa_section_string_face_se_per_m", "kappa_section_free_face_per_m", "kappa_section_free_face_se_per_m",
-            "kappa_eq3_free_face_per_m", "turn_deg", "closes")
+            "kappa_eq3_free_face_per_m", "fold_side_mm", "model_side_mm", "fold_angle_deg", "model_angle_deg",
+            "turn_deg", "closes")
 
 
 def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=None):
+    import numpy as np
+
     from airmat.atomic import atomic_write_text
     from airmat.json_doc import dumps
     from airmat.figures import save_png
@@ -49,7 +52,10 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
              "kappa_section_string_face_per_m": round(p.kappa_sim, 4), "kappa_section_string_face_se_per_m":
              round(p.kappa_sim_se, 4), "kappa_section_free_face_per_m": round(p.kappa_free, 4),
              "kappa_section_free_face_se_per_m": round(p.kappa_free_se, 4),
-             "kappa_eq3_free_face_per_m": round(p.kappa_eq3_free, 4), "turn_deg": round(p.turn_deg, 1),
+             "kappa_eq3_free_face_per_m": round(p.kappa_eq3_free, 4),
+             "fold_side_mm": round(p.fold_side * 1e3, 2), "model_side_mm": round(p.model_side * 1e3, 2),
+             "fold_angle_deg": round(float(np.degrees(p.fold_angle)), 2),
+             "model_angle_deg": round(float(np.degrees(p.model_angle)), 2), "turn_deg": round(p.turn_deg, 1),
              "closes": p.closes,
              # the names of earlier versions (kappa_sim: the cross-section circles of the string face)
              "kappa_sim_per_m": round(p.kappa_sim, 4), "kappa_sim_se_per_m": round(p.kappa_sim_se, 4),
@@ -65,8 +71,10 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
                          "middles: the polygon's vertices) on the string (bottom) face; Equation 3 gives it as "
                          "2 cos(theta/2) / L*. Circles fitted to the "
                          "cross-sections of the string face and of the free (top) face over the middle 2L; the "
-                         "model's free face bends by (pi - theta) / L. closes: the strip turns >= 330 deg (no "
-                         "self-contact in the simulation)",
+                         "model's free face bends by (pi - theta) / L. fold_side / fold_angle: the simulated "
+                         "polygon's mean side (fold to fold) and interior angle at the inner folds, next to "
+                         "Equation 3's L* = L - (pi - theta) d and theta (model_side, model_angle). closes: the "
+                         "strip turns >= 330 deg (no self-contact in the simulation)",
            "resolution_mm": resolution_mm, "L_mm": layout.L * 1e3, "thickness_mm": layout.thickness * 1e3,
            "equation3": {"delta_mm": delta * 1e3, "d_mm": d * 1e3}, "points": rows,
            "converged": all(p.converged for p in points),
@@ -142,13 +150,16 @@ def run(args) -> int:
 
 
 def _print_plain(rows):
-    print("       string face (1/m)                       free face (1/m)")
-    print("l/L    κ₁ polygon  Eq. 3 (Δ=0)  section circles section circles  model (π-θ)/L   turn")
+    print("       string face (1/m)                       free face (1/m)              "
+          "polygon: side (mm)   angle (°)")
+    print("l/L    κ₁ polygon  Eq. 3 (Δ=0)  section circles section circles  model (π-θ)/L  "
+          "  sim.  L*        sim.  θ        turn")
     for r in rows:
         print(f"{r['l_over_L']:.2f} {r['kappa_polygon_per_m']:9.2f} {r['kappa_eq3_per_m']:10.2f}"
               f"  {r['kappa_section_string_face_per_m']:6.2f} ± {2 * r['kappa_section_string_face_se_per_m']:.2f}"
               f"   {r['kappa_section_free_face_per_m']:6.2f} ± {2 * r['kappa_section_free_face_se_per_m']:.2f}"
-              f"  {r['kappa_eq3_free_face_per_m']:8.2f}     {r['turn_deg']:5.0f}°"
+              f"  {r['kappa_eq3_free_face_per_m']:8.2f}     {r['fold_side_mm']:5.0f} {r['model_side_mm']:6.0f}"
+              f"     {r['fold_angle_deg']:5.1f} {r['model_angle_deg']:6.1f}    {r['turn_deg']:5.0f}°"
               + ("  closes (no self-contact)" if r["closes"] else ""))
 
 

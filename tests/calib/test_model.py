@@ -110,3 +110,18 @@ def test_negative_inputs_raise():
         string_length(-1.0, **PAPER)
     with pytest.raises(ValueError):
         kappa1(-0.01, **PAPER)
+
+
+def test_polygon_side_is_the_span_less_the_wrinkles_and_gives_kappa1():
+    from calib.model import bend_angle, kappa1, polygon_side
+
+    L, delta, d = 0.3, 0.01, 0.07
+    l = np.array([0.05, 0.12, 0.2, 0.27, 0.28, 0.35])          # the last two flat: l + 2 delta >= L
+    theta, side = bend_angle(l, L, delta, d), polygon_side(l, L, delta, d)
+    np.testing.assert_allclose(side, L - (np.pi - theta) * d, rtol=1e-15)
+    bent = l + 2 * delta < L
+    assert np.all(side[bent] < L) and np.all(side[~bent] == L)
+    # Equation 3: the circle through the folds of a polygon of side L* and interior angle theta
+    np.testing.assert_allclose(2 * np.cos(theta[bent] / 2) / side[bent], kappa1(l[bent], L, delta, d), rtol=1e-12)
+    # Equation 1 on that polygon: the string is the chord of the two half sides
+    np.testing.assert_allclose((l[bent] + 2 * delta) / side[bent], np.sin(theta[bent] / 2), rtol=1e-9)
