@@ -10,7 +10,10 @@ validate`` makes it (:func:`check.validation.validate_equation3`). It gives the
 paper's κ₁ (the circle through consecutive folds on the string face) against
 Equation 3, and that polygon taken apart: its mean side (fold to fold) against
 Equation 3's L* = L − (π − θ) d and its interior angle against θ
-(:func:`check.validation.fold_geometry`), and how far the free face turns (a
+(:func:`check.validation.fold_geometry`), the string face's cross-section
+circles (a scan's cylinder fit) over the middle 2L (``airmat validate``'s) and
+over the strung length (:func:`check.validation.section_curvature`,
+``span``), and how far the free face turns (a
 strip that turns 330° or more would touch itself; the simulation has no
 self-contact). Whether κ₁ depends on the strip's length or on the mesh tells a
 measurement artefact from the simulator's folds. Prints a Markdown table.
@@ -44,8 +47,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     ratios = _floats(args.ratios)
     print("| strings per row | strip (mm) | mesh (mm) | l/L | κ₁ polygon (1/m) | Equation 3 (1/m) | difference "
-          "| side (mm) | L* (mm) | side / L* | angle (°) | θ (°) | turn | seconds |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| side (mm) | L* (mm) | side / L* | angle (°) | θ (°) | sections, middle 2L | sections, strung length "
+          "| turn | seconds |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for res in _floats(args.resolutions_mm):
         for n in (int(x) for x in _floats(args.series)):
             layout = SpecimenLayout(n_series=n)
@@ -57,6 +61,7 @@ def main(argv=None) -> int:
                       f"| {p.kappa_eq3:.2f} | {100 * (p.kappa_strings / p.kappa_eq3 - 1):+.1f} % "
                       f"| {p.fold_side / MM:.1f} | {p.model_side / MM:.1f} | {p.fold_side / p.model_side:.3f} "
                       f"| {np.degrees(p.fold_angle):.1f} | {np.degrees(p.model_angle):.1f} "
+                      f"| {100 * (p.kappa_sim / p.kappa_eq3 - 1):+.1f} % | {100 * (p.kappa_sim_strung / p.kappa_eq3 - 1):+.1f} % "
                       f"| {p.turn_deg:.0f}°{', closes' if p.closes else ''} | {seconds:.1f} |", flush=True)
     return 0
 

@@ -137,7 +137,7 @@ def main(argv=None) -> int:
                 print(f"| {label} | {med['baseline']:.2f} | {med['current']:.2f} | "
                       f"{med['baseline'] / med['current']:.1f}x | {', '.join(heavy['baseline']) or '-'} | "
                       f"{', '.join(heavy['current']) or '-'} |")
-            print(f"\nLargest third-party imports (cumulative `-X importtime`, ms, one run)\n")
+            print("\nLargest third-party imports (cumulative `-X importtime`, ms, one run)\n")
             print(f"| path | {args.baseline} | current |")
             print("| --- | --- | --- |")
             for i in range(1, len(labelled["current"])):

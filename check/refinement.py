@@ -390,8 +390,9 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     known = KnownRun(refined_strings, final, params, tol)
     # the design the user gets is never reported worse than the open-loop one (each against its own Ŝ)
     if not final.converged or dev1.rms > dev0.rms:
+        given = "open-loop" if design.refine is None else "given (already refined)"
         message = (f"the refined lengths inflate to {dev1.rms * 1e3:.1f} mm RMS, not better than the "
-                   f"open-loop {dev0.rms * 1e3:.1f} mm: the open-loop lengths are kept")
+                   f"{given} {dev0.rms * 1e3:.1f} mm: the {given} lengths are kept")
         converged, l_best, dev1 = False, l_open, dev0
         dropped, flagged = np.zeros(len(l_best), bool), np.zeros(len(l_best), bool)
         refined = dataclasses.replace(design)

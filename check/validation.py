@@ -202,6 +202,9 @@ class ValidationPoint:
         Mean side (m) and inner interior angle (rad) of the simulated polygon (:func:`fold_geometry`).
     model_side, model_angle : float
         Equation 3's L* (m) and θ (rad) at this l (with ``delta``, ``d``).
+    kappa_sim_strung : float
+        The string face's cross-section circles over the strung length instead of the middle 2L
+        (:func:`section_curvature` ``span="strung"``).
     """
 
     l_over_L: float
@@ -222,6 +225,7 @@ class ValidationPoint:
     fold_angle: float = float("nan")
     model_side: float = float("nan")
     model_angle: float = float("nan")
+    kappa_sim_strung: float = float("nan")
 
     @property
     def closes(self) -> bool:
@@ -229,20 +233,44 @@ class ValidationPoint:
         return bool(self.turn_deg >= CLOSES_DEG)
 
 
-def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, n: int = 61):
+def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, n: int | None = None,
+                      span: str = "middle"):
     """Curvature of the strip's cross-sections on one face, as the paper measured its scans (1/m).
 
     Along ``n_lines`` lines of constant v between the outer rows, the face over
-    the middle 2L of the strip is sampled, projected on its best-fit plane and
-    fitted with a circle (algebraic least squares); §2.2: "the curvature of the
-    cross-sectional circles was measured".
+    the middle 2L of the strip (``span="middle"``) or over its strung length,
+    from the first string end to the last (``"strung"``), is sampled,
+    projected on its best-fit plane and fitted with a circle (algebraic least
+    squares); §2.2: "the curvature of the cross-sectional circles was
+    measured". A circle fitted to a polygon-like section reads where the
+    window's ends fall against the folds: over the middle 2L a strip of four
+    strings per row reads 28 % above Equation 3 at l/L = 0.4, one of three
+    6.5 %; over the strung length 2.5 % and 4.6 % (20 mm). But over the strung length
+    the reading jumps: by 3.5 % between rest lengths 0.008 % apart near
+    l*/L = 0.55 (40 mm mesh), where the strip's ends come near each other, and
+    the calibrated length map's table cannot follow that (its check at
+    l/L = 0.4 read −7.3 %, against −1.4 % over the middle 2L); so the middle 2L
+    stays the default (README, The specimen's polygon).
+
+    Parameters
+    ----------
+    n : int, optional
+        Points per line; default one per 10 mm.
+    span : {"middle", "strung"}
 
     Returns
     -------
     kappa, se : float
         Mean curvature of the lines and its standard error.
     """
-    u = np.linspace(0.5 * layout.width - layout.L, 0.5 * layout.width + layout.L, n)
+    if span == "middle":
+        lo, hi = 0.5 * layout.width - layout.L, 0.5 * layout.width + layout.L
+    elif span == "strung":
+        lo, hi = layout.margin, layout.width - layout.margin
+    else:
+        raise ValueError(f"span must be 'middle' or 'strung', got {span!r}")
+    n = int(round((hi - lo) / 0.01)) + 1 if n is None else n
+    u = np.linspace(lo, hi, n)
     v = np.linspace(layout.margin, layout.height - layout.margin, n_lines)
     uv = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
     xyz = surface_at(inf, uv, face)[0].reshape(n_lines, n, 3)
@@ -344,7 +372,8 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
         points.append(ValidationPoint(float(r), float(k), float(se), k3, kp, inf.converged, inf.n_iter,
                                       inf.seconds, inf.message, float(kf), float(sef), k3_free, turn,
                                       float(ls / layout.L), float(np.mean(side)), float(np.mean(angle)),
-                                      float(polygon_side(l, layout.L, delta, d)), theta))
+                                      float(polygon_side(l, layout.L, delta, d)), theta,
+                                      section_curvature(inf, layout, "bottom", span="strung")[0]))
     return points
 
 

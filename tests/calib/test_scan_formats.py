@@ -2,7 +2,6 @@
 
 import dataclasses
 import logging
-import os
 
 import numpy as np
 import pytest

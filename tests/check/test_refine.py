@@ -199,3 +199,29 @@ def test_a_refinement_out_of_iterations_counts_them_all(case):
     r = refine(case, resolution=0.02, max_iter=3, fine_iter=1)
     assert r.iterations == 3 and not r.converged
     assert r.message == "not converged after 3 iterations"
+
+
+@pytest.mark.parametrize("already", [False, True])
+def test_lengths_that_verify_worse_are_not_kept_and_the_message_names_what_is(case, monkeypatch, already):
+    # the verification of the refined lengths made worse on purpose (every string 20 mm shorter): the given
+    # lengths are kept, converged=False, and the message names them (the open-loop ones, or a refined
+    # design's own when a refined design is refined again)
+    import check.refinement as refinement
+
+    calls, inflate = [], refinement.inflate
+
+    def worse_verification(mesh, strings, **kw):
+        calls.append(kw)
+        if len(calls) == 2:
+            strings = dataclasses.replace(strings, rest=strings.rest - 0.02)
+        return inflate(mesh, strings, **kw)
+
+    monkeypatch.setattr(refinement, "inflate", worse_verification)
+    given = dataclasses.replace(case, refine={"converged": True}) if already else case
+    r = refine(given, resolution=RESOLUTION, max_iter=2)
+    assert len(calls) == 2 and not r.converged
+    np.testing.assert_array_equal(r.l_simulated, np.clip(design_strings(case).rest, *refinement._bounds(
+        case, design_strings(case))))
+    assert r.deviation_after == r.deviation_before and r.dropped == r.flagged == ()
+    name = "given (already refined)" if already else "open-loop"
+    assert f"not better than the {name}" in r.message and f"the {name} lengths are kept" in r.message

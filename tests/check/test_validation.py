@@ -57,6 +57,10 @@ def test_simulated_kappa1_against_equation3():
     side = np.array([p.fold_side / p.model_side for p in pts])
     assert side[0] > 1.08 and pts[0].fold_angle > pts[0].model_angle + np.radians(3), (side, pts[0])
     assert np.all(np.abs(side[1:] - 1) < 0.05), side
+    # the string face's cross-section circles over the strung length (a cylinder fit of the whole strip):
+    # within 10 % of Equation 3 over the whole range (measured +3.7, +8.2, +3.1, +7.9, +6.4, -0.0 %)
+    rel_strung = np.array([p.kappa_sim_strung for p in pts]) / k_eq3 - 1
+    assert np.all(np.abs(rel_strung) <= 0.10), rel_strung
     # the named (free) face against the model's free face: within 10 % over the whole range
     k_free = np.array([p.kappa_free for p in pts])
     rel_free = k_free / np.array([p.kappa_eq3_free for p in pts]) - 1
@@ -113,6 +117,10 @@ def test_measures_of_a_bent_strip_read_its_radii():
     np.testing.assert_allclose(angle, np.pi - turn, rtol=1e-3)
     k, se = section_curvature(inf, lay, "bottom")
     assert k == pytest.approx(1 / R, rel=5e-3) and se < 1e-3
+    # over the strung length (the whole strip but its margins) the same circle
+    assert section_curvature(inf, lay, "bottom", span="strung")[0] == pytest.approx(1 / R, rel=5e-3)
+    with pytest.raises(ValueError, match="span must be"):
+        section_curvature(inf, lay, "bottom", span="all")
     assert section_curvature(inf, lay, "top")[0] == pytest.approx(1 / (R + lay.thickness), rel=5e-3)
     turn = np.degrees(lay.width / (R + lay.thickness))             # 180 degrees: does not close
     assert turn_angle(inf, lay) == pytest.approx(turn, rel=1e-2)     # chords on a 50 mm grid: 0.5 %

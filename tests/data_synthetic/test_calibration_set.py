@@ -78,7 +78,7 @@ def _rebuild(small_set, i, kappa):
 
 def test_same_seed_same_bytes_other_seed_differs(tmp_path):
     a = calibration_set(tmp_path / "a", l_over_L=RATIOS[:3], n_points=2000, seed=5)
-    b = calibration_set(tmp_path / "b", l_over_L=RATIOS[:3], n_points=2000, seed=5)
+    calibration_set(tmp_path / "b", l_over_L=RATIOS[:3], n_points=2000, seed=5)
     c = calibration_set(tmp_path / "c", l_over_L=RATIOS[:3], n_points=2000, seed=6)
     names = list(a.scans) + ["manifest.csv", "truth.json"]
     for n in names:
