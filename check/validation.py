@@ -396,15 +396,18 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout(), delt
     Returns
     -------
     matplotlib.figure.Figure
-        Lines in this order: Equation 3 (string face), the model's free face, the strip's
-        cross-section circles (string face, free face), the measured polygon κ₁ (last).
+        Two axes. The first: lines in this order: Equation 3 (string face), the model's free
+        face, the strip's cross-section circles (string face, free face), the measured polygon
+        κ₁ (last). The second (when the points carry :func:`fold_geometry`): the simulated
+        polygon taken apart, its side against L* and its angle against θ (%), where κ₁ parts
+        from Equation 3.
     """
     d = layout.thickness if d is None else float(d)
     L_mm, d_mm = layout.L * 1e3, d * 1e3
     grid = np.linspace(0, 1, 201)
     x = np.array([p.l_over_L for p in points])
-    fig = new_figure((7, 4.8))
-    ax = fig.subplots()
+    fig = new_figure((11.5, 4.8))
+    ax, parts = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.6, 1]})
     name = "calibrated κ₁ (posterior median): Equation 3" if calibrated else "Equation 3"
     ax.plot(grid, kappa1(grid * layout.L, layout.L, delta, d), "k-",
             label=f"{name}, Δ = {delta * 1e3:.3g} mm, d = {d_mm:.3g} mm: 2cos(θ/2)/L* (string face)")
@@ -427,5 +430,17 @@ def validation_figure(points, *, layout: SpecimenLayout = SpecimenLayout(), delt
     ax.legend(fontsize=8)
     ax.set_title("airmat validate: " + ("the calibrated simulator against the calibrated κ₁" if calibrated
                                         else "inflation simulation against Equation 3"))
+    side = np.array([p.fold_side / p.model_side - 1 for p in points]) * 100
+    angle = np.array([p.fold_angle / p.model_angle - 1 for p in points]) * 100
+    parts.axhline(0.0, color="k", lw=0.8)
+    parts.plot(x, side, "o-", color="C0", label="polygon side, fold to fold, against L* = L − (π − θ) d")
+    parts.plot(x, angle, "s--", color="C1", label="interior angle at the inner folds against θ")
+    if closes.any():
+        parts.plot(x[closes], side[closes], "x", color="grey", ms=10, label=f"strip turns ≥ {CLOSES_DEG:g}°")
+    parts.set_xlabel(f"{'real ' if calibrated else ''}l / L")
+    parts.set_ylabel("simulated against Equation 3's polygon (%)")
+    parts.set_title("the polygon taken apart")
+    parts.grid(alpha=0.3)
+    parts.legend(fontsize=8)
     fig.tight_layout()
     return fig

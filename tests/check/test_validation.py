@@ -76,10 +76,14 @@ def test_validation_figure_is_a_figure_with_the_points_and_equation_3():
     from check.validation import ValidationPoint, validation_figure
 
     lay = SpecimenLayout(L=0.25, thickness=0.05)
-    pts = [ValidationPoint(r, 10 * r, 0.2, 11 * r, 9 * r, True, 10, 1.0, "ok") for r in (0.3, 0.6)]
+    pts = [ValidationPoint(r, 10 * r, 0.2, 11 * r, 9 * r, True, 10, 1.0, "ok", fold_side=0.2 * (1 + r),
+                           fold_angle=1.0, model_side=0.2, model_angle=1.25) for r in (0.3, 0.6)]
     fig = validation_figure(pts, layout=lay)
     assert isinstance(fig, Figure)
-    (ax,) = fig.axes
+    ax, parts = fig.axes
+    # the polygon taken apart, in % of Equation 3's side and angle, as given
+    np.testing.assert_allclose(parts.lines[1].get_data()[1], [30.0, 60.0])
+    np.testing.assert_allclose(parts.lines[2].get_data()[1], [-20.0, -20.0])
     assert "L = 250 mm" in ax.get_xlabel()
     labels = ax.get_legend_handles_labels()[1]
     assert any("d = 50 mm" in t for t in labels) and len(labels) == 5
