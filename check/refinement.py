@@ -152,6 +152,8 @@ class Refinement:
         The open-loop inflation against that Ŝ (``deviation_before`` is against the designed one).
     reparametrize_rounds : int
         How many rounds were made.
+    lengths_before : {"open-loop", "refined"}
+        What the given design's lengths were (a refined design can be refined again).
     """
 
     design: object
@@ -178,6 +180,7 @@ class Refinement:
     reparametrization: Reparametrization | None = None
     deviation_before_reparametrized: Deviation | None = None
     reparametrize_rounds: int = 0
+    lengths_before: str = "open-loop"
 
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
@@ -189,7 +192,8 @@ class Refinement:
                 "coarse_resolution_mm": None if self.coarse_resolution is None
                 else round(self.coarse_resolution * 1e3, 3),
                 "defect_corrections": len(self.corrections), "alpha": float(self.alpha),
-                "surface": self.surface, "deviation_before": dev(self.deviation_before),
+                "surface": self.surface, "lengths_before": self.lengths_before,
+                "deviation_before": dev(self.deviation_before),
                 "deviation_after": dev(self.deviation_after), "dropped": list(self.dropped),
                 "flagged": list(self.flagged), "message": self.message,
                 "reparametrization": None if self.reparametrization is None else {
@@ -314,6 +318,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     """
     t0 = time.perf_counter()
     check_refinable(design, resolution)
+    given = "open-loop" if design.refine is None else "refined"
     if reparametrize < 0:
         raise InputError(f"refinement: reparametrize must be 0 or more rounds, got {reparametrize}")
     strings = design_strings(design, "median")
@@ -390,7 +395,6 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     known = KnownRun(refined_strings, final, params, tol)
     # the design the user gets is never reported worse than the open-loop one (each against its own Ŝ)
     if not final.converged or dev1.rms > dev0.rms:
-        given = "open-loop" if design.refine is None else "given (already refined)"
         message = (f"the refined lengths inflate to {dev1.rms * 1e3:.1f} mm RMS, not better than the "
                    f"{given} {dev0.rms * 1e3:.1f} mm: the {given} lengths are kept")
         converged, l_best, dev1 = False, l_open, dev0
@@ -408,7 +412,8 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
                      verification_seconds=t_verify, resolution=resolution, surface=named,
                      coarse_resolution=coarse, corrections=tuple(fine_rms), alpha=float(alpha),
                      verification=known, reparametrization=reps[-1] if reps else None,
-                     deviation_before_reparametrized=dev0_new, reparametrize_rounds=len(reps))
+                     deviation_before_reparametrized=dev0_new, reparametrize_rounds=len(reps),
+                     lengths_before=given)
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
              "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
              dev0.rms * 1e3, dev1.rms * 1e3)

@@ -96,7 +96,8 @@ def refine_lines(b: dict) -> list[str]:
     if r is not None:
         lines.append(f"  surface points moved {r['moved_rms_mm']:.1f} mm RMS along it (at most {r['moved_max_mm']:.1f} "
                      f"mm; {r['off_surface_rms_mm']:.2f} mm RMS off it) to where the refined mattress puts them; the "
-                     f"open-loop lengths are {r['deviation_before']['rms_pct_diag']:.2f} % of the diagonal from it")
+                     f"{b.get('lengths_before', 'open-loop')} lengths are {r['deviation_before']['rms_pct_diag']:.2f} "
+                     f"% of the diagonal from it")
     return lines
 
 

@@ -223,5 +223,6 @@ def test_lengths_that_verify_worse_are_not_kept_and_the_message_names_what_is(ca
     np.testing.assert_array_equal(r.l_simulated, np.clip(design_strings(case).rest, *refinement._bounds(
         case, design_strings(case))))
     assert r.deviation_after == r.deviation_before and r.dropped == r.flagged == ()
-    name = "given (already refined)" if already else "open-loop"
+    name = "refined" if already else "open-loop"
     assert f"not better than the {name}" in r.message and f"the {name} lengths are kept" in r.message
+    assert r.lengths_before == r.block()["lengths_before"] == name

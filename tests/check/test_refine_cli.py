@@ -87,3 +87,9 @@ def test_cli_design_refine_says_what_the_refinement_did(tmp_path, capsys):
     assert f"refined in {b['iterations']} iterations" in text
     assert f"-> {b['deviation_after']['rms_mm']:.1f} mm" in text
     assert f"surface points moved {b['reparametrization']['moved_rms_mm']:.1f} mm RMS" in text
+    assert b["lengths_before"] == "open-loop" and "the open-loop lengths are" in text
+    # a refined design's block names its lengths as refined (one written before the field: open-loop)
+    from airmat.cli.refine import refine_lines
+    assert "the refined lengths are" in "\n".join(refine_lines({**b, "lengths_before": "refined"}))
+    old = {k: v for k, v in b.items() if k != "lengths_before"}
+    assert "the open-loop lengths are" in "\n".join(refine_lines(old))
