@@ -7,7 +7,7 @@ Public API (SI units: metres, 1/m):
 - :class:`MonteCarloDraws`, :class:`MonteCarloResult` -- the sampled string lengths and the
   statistics of their runs (``monte_carlo``).
 - :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ on a
-  named face (:func:`length_keeping_face`: the face opposite the strings) (``compare``).
+  named face (:func:`design.face_metric.length_keeping_face`: the face opposite the strings) (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
 - :func:`refine` -- the string lengths refined through the inflated equilibrium (adjoint
   Gauss–Newton), a refined DesignResult and its ``refine`` block (``refinement``, ``adjoint``,
@@ -22,7 +22,7 @@ from airmat.lazy import attach
 
 # public name -> its submodule, imported on first use (``airmat.lazy``)
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "compare": ["SURFACES", "Deviation", "deviation", "length_keeping_face", "realized_curvature",
+    "compare": ["SURFACES", "Deviation", "deviation", "realized_curvature",
                 "surface_at"],
     "inflation_check": ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings"],
     "calibrated_map": ["calibrated_length_map"],

@@ -7,7 +7,7 @@ the string shortens to L* = L − 2h; the simulator agrees (σ ≈ 0.999 on the
 face opposite the strings, ≈ 0.89 on the string face). So Ŝ is the
 **length-keeping face**: the face opposite the strings. A design with
 strings on both faces (a saddle) is compared on the face opposite the larger
-share of bending, |κ| times the string's span (:func:`length_keeping_face`;
+share of bending, |κ| times the string's span (:func:`design.face_metric.length_keeping_face`;
 a string face shortens by about |κ| d per unit length, so this face is the
 one whose lengths Ŝ misses least); the other surfaces (top, bottom, mid) are
 reported for reference.
@@ -30,7 +30,7 @@ from airmat.errors import InputError
 from airmat.geometry.polyline import midpoints, points_at_fractions
 from inflation.mesh import locate
 
-__all__ = ["SURFACES", "Deviation", "surface_at", "length_keeping_face", "deviation", "realized_curvature",
+__all__ = ["SURFACES", "Deviation", "surface_at", "deviation", "realized_curvature",
            "menger_signed"]
 
 #: the surfaces of an inflated mattress a comparison can name
@@ -105,34 +105,6 @@ def surface_at(inflation, uv, which: str = "mid"):
     up = top - bottom
     xyz = {"top": top, "bottom": bottom}.get(which)
     return (0.5 * (top + bottom) if xyz is None else xyz), up / np.linalg.norm(up, axis=1, keepdims=True)
-
-
-def length_keeping_face(weights, top) -> str:
-    """The face Ŝ stands for: opposite the larger share of bending.
-
-    Parameters
-    ----------
-    weights : ndarray of shape (k,)
-        Each string's share: |κ| times its span on Ω (the string face shortens by
-        about that times d; any nonnegative weight, e.g. spans alone).
-    top : ndarray of shape (k,) of bool
-        True for a string on the top face.
-
-    Returns
-    -------
-    str
-        ``"top"`` when the bottom strings' total weight is at least the top
-        strings' (a design without strings included), else ``"bottom"``.
-
-    Examples
-    --------
-    >>> length_keeping_face([0.3, 0.3, 0.2], [False, False, True])
-    'top'
-    >>> length_keeping_face([0.3], [True])
-    'bottom'
-    """
-    weights, top = np.asarray(weights, float), np.asarray(top, bool)
-    return "top" if weights[~top].sum() >= weights[top].sum() else "bottom"
 
 
 def deviation(inflation, approx_xyz, approx_uv, surface: str = "mid") -> Deviation:

@@ -31,7 +31,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from check.compare import SURFACES, Deviation, deviation, length_keeping_face, realized_curvature
+from check.compare import SURFACES, Deviation, deviation, realized_curvature
+from design.face_metric import length_keeping_face
 from check.length_map import length_map
 from check.monte_carlo import draw, summarize
 from inflation.mesh import build_mattress_mesh
@@ -169,7 +170,7 @@ def named_face(design, strings: StringSet) -> str:
 
     A design whose Ŝ took a face's metric (``report.metric["face"]``, design.face_metric)
     names that face, so the design and the check speak of one surface; otherwise the
-    face opposite the larger share of bending (:func:`check.compare.length_keeping_face`:
+    face opposite the larger share of bending (:func:`design.face_metric.length_keeping_face`:
     each string's |κ| times its span, the string face shortening by about |κ| d per unit
     length).
 

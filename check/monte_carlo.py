@@ -99,7 +99,7 @@ def draw(design, n: int, seed: int = 0, *, lengths=None) -> MonteCarloDraws:
     sigma = np.asarray(cal.sigma, float)[pick] if has_sigma else np.zeros(n)
     z = rng.standard_normal((n, len(strings)))
     l_med = np.array([s.l_median for s in strings], float)
-    span = np.array([s.dash.length for s in strings], float)
+    span = np.array([s.eq3_span for s in strings], float)      # the span each length came from
     d_bar, delta_bar = float(np.median(cal.d)), cal.delta_median
     k_bar = kappa1(l_med, span, delta_bar, d_bar)                          # (k,)
     k_top = kappa_max(span, delta_bar, d_bar)

@@ -189,13 +189,15 @@ def _string(dash, k: int, path: Path, width: float, height: float) -> TensionStr
     length = dash.get("L_mm")
     length = _number(length, f"dash {did} L_mm", path) * MM if length is not None else \
         float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
+    free = dash.get("free_span_mm")
+    free = None if free is None else _number(free, f"dash {did} free_span_mm", path) * MM
     m = _ID.match(did)
     line, index = (int(m.group(1)), int(m.group(2))) if m else (0, k + 1)
     nodes = [_grid_node(dash.get(f"{end}_node"), f"dash {did} {end}_node", path) for end in ("a", "b")]
     return TensionString(dash=Dash(id=did, family=family, line=line, index=index, polyline=poly, length=length,
                                    a_node=nodes[0], b_node=nodes[1]),
                          kappa=kappa, side=side, l_median=l[0], l_lo95=l[1], l_hi95=l[2],
-                         flags=_flags(dash.get("flags", ()), did, path))
+                         flags=_flags(dash.get("flags", ()), did, path), free_span=free)
 
 
 def _flags(value, did: str, path: Path) -> tuple:
@@ -249,6 +251,8 @@ def _params(doc: dict, path: Path) -> DesignParams:
         kw["n_kappa_points"] = int(_number(p["n_kappa_points"], "parameters.n_kappa_points", path))
     # a folder from before the face metric was relaxed in Ω's metric
     kw["face_metric"] = bool(p.get("face_metric", False))
+    # and before Equation 3 took the free face's span
+    kw["free_face_span"] = bool(p.get("free_face_span", False))
     return DesignParams(**kw)
 
 

@@ -1,7 +1,7 @@
 """Ŝ in the metric of the face it stands for: the named face shortens where it carries strings.
 
 The check compares Ŝ with the face that keeps its length: the face opposite
-the strings (:func:`check.compare.length_keeping_face`, the top face when
+the strings (:func:`length_keeping_face`, the top face when
 the bottom strings, κ > 0, carry the larger share of the bending). On a
 design whose curvature has one sign (a vault, a cylinder) that face carries
 no string and keeps Ω's lengths, as the paper's A1 assumes. On a saddle the
@@ -34,7 +34,7 @@ import numpy as np
 
 from airmat.geometry.topology import flat_vertex_areas, mesh_edges
 
-__all__ = ["FaceMetric", "face_metric", "named_face", "relax_in_face_metric", "ROUNDS"]
+__all__ = ["FaceMetric", "face_metric", "named_face", "length_keeping_face", "relax_in_face_metric", "ROUNDS"]
 
 log = logging.getLogger(__name__)
 
@@ -87,7 +87,7 @@ def named_face(kappa, uv, faces, *, kappa_min: float = 0.25) -> str:
     str
         ``"top"`` when the area integral of the positive curvatures that need a string
         (the bottom strings') is at least the negative ones', else ``"bottom"``: the rule
-        of :func:`check.compare.length_keeping_face`, on the field instead of the strings.
+        of :func:`length_keeping_face`, on the field instead of the strings.
 
     Examples
     --------
@@ -102,6 +102,34 @@ def named_face(kappa, uv, faces, *, kappa_min: float = 0.25) -> str:
     area = flat_vertex_areas(uv, faces)
     pos, neg = area @ np.maximum(need, 0).sum(axis=1), area @ np.maximum(-need, 0).sum(axis=1)
     return "top" if pos >= neg else "bottom"
+
+
+def length_keeping_face(weights, top) -> str:
+    """The face Ŝ stands for: opposite the larger share of bending.
+
+    Parameters
+    ----------
+    weights : ndarray of shape (k,)
+        Each string's share: |κ| times its span on Ω (the string face shortens by
+        about that times d; any nonnegative weight, e.g. spans alone).
+    top : ndarray of shape (k,) of bool
+        True for a string on the top face.
+
+    Returns
+    -------
+    str
+        ``"top"`` when the bottom strings' total weight is at least the top
+        strings' (a design without strings included), else ``"bottom"``.
+
+    Examples
+    --------
+    >>> length_keeping_face([0.3, 0.3, 0.2], [False, False, True])
+    'top'
+    >>> length_keeping_face([0.3], [True])
+    'bottom'
+    """
+    weights, top = np.asarray(weights, float), np.asarray(top, bool)
+    return "top" if weights[~top].sum() >= weights[top].sum() else "bottom"
 
 
 def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_min: float = 0.25,

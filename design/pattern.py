@@ -79,6 +79,10 @@ class TensionString:
     flags : tuple of str
         ``"beyond_reach"`` when more than 2.5 % of the posterior cannot reach
         |κ| even at l = 0 (those samples are clipped to l = 0).
+    free_span : float or None
+        The span (m) Equation 3 was evaluated at: the length the string's free face has
+        between the ties on Ŝ, at most the dash's length (:mod:`design.free_face`);
+        None: the dash's length.
     """
 
     dash: Dash
@@ -88,6 +92,12 @@ class TensionString:
     l_lo95: float
     l_hi95: float
     flags: tuple = ()
+    free_span: float | None = None
+
+    @property
+    def eq3_span(self) -> float:
+        """The span L (m) of Equation 3 for this string: ``free_span``, else the dash's length."""
+        return float(self.dash.length if self.free_span is None else self.free_span)
 
 
 @dataclass(frozen=True)

@@ -81,6 +81,10 @@ class DesignParams:
         design with curvature of both signs the named face carries the minority
         family's strings and shortens along them; one-signed designs are unchanged.
         False: Ω's metric everywhere (the paper's A1).
+    free_face_span : bool
+        Evaluate Equation 3 at each string's free-face span on Ŝ (:mod:`design.free_face`:
+        shorter where Ŝ compresses the face opposite the string). False: at the dash's
+        span on Ω (the paper).
     """
 
     L: float | None = None
@@ -97,6 +101,7 @@ class DesignParams:
     n_kappa_points: int = 10
     tie_grid: float = 0.02
     face_metric: bool = True
+    free_face_span: bool = True
 
     def weights(self) -> dict:
         """The U_A weights in use: given ones, else the surface side's defaults."""
@@ -116,7 +121,8 @@ class DesignParams:
                 "step_mm": mm(sp.step_used), "spacing_mm": mm(self.spacing), **self.weights(),
                 "kappa_min_per_m": self.kappa_min,
                 "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points),
-                "tie_grid_mm": mm(self.tie_grid), "face_metric": bool(self.face_metric)}
+                "tie_grid_mm": mm(self.tie_grid), "face_metric": bool(self.face_metric),
+                "free_face_span": bool(self.free_face_span)}
 
 
 @dataclass(frozen=True)
@@ -237,6 +243,7 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     t = time.perf_counter()
     dashes, snap = snap_dashes(stripes.dashes, grid=params.tie_grid, width=mattress.width, height=mattress.height)
     pattern = string_pattern(mfield, dashes, calibration, L=L, n_points=params.n_kappa_points,
+                             approx=approx if params.free_face_span else None,
                              kappa_min=params.kappa_min, notes=stripes.notes, tie_grid=snap)
     cover = pattern_coverage(mfield, pattern.strings, dashes, approx.uv, width=mattress.width,
                              height=mattress.height, kappa_min=params.kappa_min, L=L, mu2=sp.mu2, margin=sp.margin)

@@ -16,6 +16,9 @@ l = string_length(|κ|, L, Δ, d), evaluated for every posterior sample of
   perhaps its median, is 0).
 - A dash whose chord is much shorter than its arc length (a line curving
   strongly on Ω) is flagged ``curved``: the string pulls along the chord.
+- Given Ŝ, Equation 3's span is the string's free face's length between the
+  ties on Ŝ, at most the dash's length (:mod:`design.free_face`), not the dash's
+  length on Ω: where Ŝ compresses that face, the string is shorter.
 
 SI units: metres, 1/m.
 """
@@ -28,10 +31,12 @@ import numpy as np
 
 from airmat.geometry.polyline import points_at_fractions
 from calib.model import flat_length, kappa_max, string_length
+from design.face_metric import length_keeping_face
 from design.field import FAMILIES
+from design.free_face import free_face_ratio
 from design.pattern import Pattern, TensionString
 
-__all__ = ["dash_kappa", "length_quantiles", "string_pattern"]
+__all__ = ["dash_kappa", "length_quantiles", "string_pattern", "free_face_named"]
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +105,7 @@ def length_quantiles(kappa_abs, L: float, delta, d):
 
 
 def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
-                   kappa_min: float = 0.25, notes=(), tie_grid=None) -> Pattern:
+                   kappa_min: float = 0.25, notes=(), tie_grid=None, approx=None) -> Pattern:
     """Turn dashes into tension strings: face, length and tolerance.
 
     Parameters
@@ -122,6 +127,10 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
         When the dashes' ends were snapped to the mattress's grid: each string's
         length then comes from Equation 3 at its own dash's L (``dash.length``),
         not at ``L``; the report is kept in the pattern.
+    approx : design.surface.ApproxSurface, optional
+        Ŝ: Equation 3 is then evaluated at each string's free-face span on it,
+        min(c, 1) times the dash's span (:func:`design.free_face.free_face_ratio`, with
+        the named face of :func:`free_face_named`); None: at the dash's span.
 
     Returns
     -------
@@ -134,10 +143,18 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     need = np.abs(kappa) >= max(kappa_min, 0.0)
     need &= np.abs(kappa) > 0
     strings, n_no = [], {name: 0 for name in FAMILIES}
-    if np.any(need):
-        q, unreachable = length_quantiles(np.abs(kappa[need]), spans[need] if snapped else L,
-                                          calibration.delta, calibration.d)
     idx_need = np.flatnonzero(need)
+    eq3_spans = spans.copy()
+    if approx is not None and len(idx_need):
+        sides = np.where(kappa[idx_need] < 0, "top", "bottom")
+        share = np.abs(kappa[idx_need]) * np.array([dashes[i].chord for i in idx_need])
+        named = free_face_named(approx, share, sides == "top")
+        c = free_face_ratio(approx.xyz, approx.uv, approx.faces, [dashes[i].polyline for i in idx_need], sides,
+                            named=named, thickness=approx.mattress.thickness)
+        eq3_spans[idx_need] = np.minimum(c, 1.0) * spans[idx_need]
+    if len(idx_need):
+        q, unreachable = length_quantiles(np.abs(kappa[need]), eq3_spans[need] if snapped or approx is not None
+                                          else L, calibration.delta, calibration.d)
     for j, i in enumerate(idx_need):
         dash = dashes[i]
         if q[0, j] >= med_flat[i]:  # numerically flat: no string
@@ -151,7 +168,8 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
         strings.append(TensionString(dash=dash, kappa=float(kappa[i]),
                                      side="top" if kappa[i] < 0 else "bottom",
                                      l_median=float(q[0, j]), l_lo95=float(q[1, j]), l_hi95=float(q[2, j]),
-                                     flags=tuple(flags)))
+                                     flags=tuple(flags),
+                                     free_span=None if approx is None else float(eq3_spans[i])))
     for i in np.flatnonzero(~need):
         n_no[dashes[i].family] += 1
     n_dashes = {name: sum(1 for d in dashes if d.family == name) for name in FAMILIES}
@@ -164,3 +182,25 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
         log.warning(extra[-1])
     return Pattern(strings=tuple(strings), L=float(L), n_dashes=n_dashes, n_no_string=n_no,
                    notes=tuple(notes) + tuple(extra), tie_grid=tie_grid)
+
+
+def free_face_named(approx, share, top) -> str:
+    """The face Ŝ stands for, as the check names it (:func:`check.inflation_check.named_face`).
+
+    Parameters
+    ----------
+    approx : design.surface.ApproxSurface
+        Its report's metric names the face Ŝ was relaxed in, when it was.
+    share : ndarray of shape (k,)
+        Each string's |κ| times its chord on Ω.
+    top : ndarray of shape (k,) of bool
+        True for a string on the top face.
+
+    Returns
+    -------
+    str
+        The face of Ŝ's metric, else the face opposite the larger share
+        (:func:`design.face_metric.length_keeping_face`).
+    """
+    face = None if approx.report is None else approx.report.metric.get("face")
+    return face if face in ("top", "bottom") else length_keeping_face(share, top)

@@ -50,6 +50,9 @@ def add_parser(sub, parents):
     p.add_argument("--flat-metric", action="store_true",
                    help="relax Ŝ in the flat mattress's metric everywhere (the paper's A1), not in the metric of "
                         "the face Ŝ stands for (which its own strings shorten on a saddle)")
+    p.add_argument("--dash-span", action="store_true",
+                   help="string lengths from Equation 3 at each dash's span on the flat mattress (the paper), "
+                        "not at the span its free face has on the approximated surface")
     p.add_argument("--refine", action="store_true",
                    help="refine the string lengths through the simulated inflation (adjoint Gauss-Newton), "
                         "so that the inflated named face lands on the approximated surface")
@@ -128,7 +131,7 @@ def _params(args):
                         step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
                         weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm,
-                        face_metric=not args.flat_metric)
+                        face_metric=not args.flat_metric, free_face_span=not args.dash_span)
 
 
 def summary_text(doc: dict, out) -> str:

@@ -53,6 +53,7 @@ def _dash_entry(s) -> dict:
             "polyline_mm": [[_mm(u), _mm(v)] for u, v in d.polyline],
             "a_mm": [_mm(d.a[0]), _mm(d.a[1])], "b_mm": [_mm(d.b[0]), _mm(d.b[1])],
             "L_mm": _mm(d.length), "chord_mm": _mm(d.chord),
+            "free_span_mm": None if s.free_span is None else _mm(s.free_span),
             "kappa_per_m": round(float(s.kappa), 4),
             "l_mm": {"median": _mm(s.l_median), "lo95": _mm(s.l_lo95), "hi95": _mm(s.l_hi95)},
             "flags": list(s.flags), "a_node": _node(d.a_node, d.a), "b_node": _node(d.b_node, d.b)}

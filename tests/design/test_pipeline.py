@@ -58,8 +58,10 @@ def test_cylinder_strings_invert_the_curvature_1_over_R(cyl):
     k_true = 1.0 / surf.params["radius"]
     for s in r.pattern.strings:
         assert s.kappa == pytest.approx(k_true, rel=KAPPA_RTOL)
-        # the ends are tied to the 20 mm grid: Equation 3 at the dash's own (snapped) L
-        L = s.dash.length
+        # the ends are tied to the 20 mm grid: Equation 3 at the dash's own (snapped) L, times what
+        # its free face (the top face, Ŝ itself) keeps of it on Ŝ: a developable Ŝ keeps it all
+        assert s.dash.length * 0.995 <= s.free_span <= s.dash.length
+        L = s.eq3_span
         assert kappa1(s.l_median, L, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
         assert s.l_median == pytest.approx(float(string_length(k_true, L, 0.018, 0.070)), abs=0.005)
         # the dash runs around the axis (x): its chord on Ŝ is perpendicular to it, up to the
@@ -77,7 +79,9 @@ def test_cone_strings_follow_the_local_curvature(con):
     for s in r.pattern.strings:
         k_true = float(np.mean(surf.curvature(_dash_points_on_S(r, s))[0][:, 0]))
         assert s.kappa == pytest.approx(k_true, rel=KAPPA_RTOL)
-        assert kappa1(s.l_median, s.dash.length, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
+        # a developable Ŝ keeps its free face's length: Equation 3 at (nearly) the dash's span
+        assert s.dash.length * 0.995 <= s.free_span <= s.dash.length
+        assert kappa1(s.l_median, s.eq3_span, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
         kappas.append(k_true)
     assert np.ptp(kappas) > 0.2 * np.mean(kappas)  # the test sees a real variation along the cone
 
@@ -115,11 +119,13 @@ def test_string_ends_sit_on_the_20mm_grid_and_L_is_their_span(fixture, request):
 
 
 def test_free_ends_keep_L_and_equation_3_at_L():
+    """With free ends and the paper's rule (--dash-span) every string is Equation 3 at L exactly."""
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
-    r = design(surf, MATTRESS, calibration=POINT, params=DesignParams(spacing=0.04, tie_grid=0.0), progress=False)
+    r = design(surf, MATTRESS, calibration=POINT, params=DesignParams(spacing=0.04, tie_grid=0.0,
+                                                                      free_face_span=False), progress=False)
     assert r.pattern.strings
     for s in r.pattern.strings:
-        assert s.dash.a_node is None and s.dash.b_node is None
+        assert s.dash.a_node is None and s.dash.b_node is None and s.free_span is None
         assert kappa1(s.l_median, 0.3, 0.018, 0.070) == pytest.approx(s.kappa, rel=1e-9)
         # free ends: the dash runs exactly around the axis (x), its chord on Ŝ perpendicular to it
         p = _dash_points_on_S(r, s)
