@@ -31,7 +31,8 @@ surface": the refined face's RMS distance from the nearest points of the designe
 refinements of the same design, the first at its own lengths and the others with every
 open-loop real length moved by a uniform draw in ±``--jitter-um`` (5 µm by default, the
 0.01 mm rounding of design.json; seeds 1 … K−1), and one row per preset and setting with
-the spread of the refined deviation.
+the spread of the refined deviation, and each draw's time over the open-loop inflation it
+starts with (the same design at the same resolution, in the same process).
 """
 
 from __future__ import annotations
@@ -126,8 +127,8 @@ def jittered(design, seed: int, half_width: float):
 def spread(names, args) -> int:
     """One row per preset and setting: the refined deviation over ``args.draws`` jittered refinements."""
     print(f"| preset | alpha | re-param rounds | draws (±{args.jitter_um:g} µm) | refined % diag: median | min – max "
-          "| ≤ 1 % | converged | refined % diag, each draw |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| ≤ 1 % | converged | refined % diag, each draw | refine / its first inflation, each draw |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in names:
         design = designed_preset(name)
         for alpha in args.alpha:
@@ -138,8 +139,8 @@ def spread(names, args) -> int:
                 pct = np.array([r.deviation_after.rms_pct_diag for r in rs])
                 print(f"| {name} | {rs[0].alpha:g} | {rs[0].reparametrize_rounds} | {args.draws} | {np.median(pct):.2f} "
                       f"| {pct.min():.2f} – {pct.max():.2f} | {int(np.sum(pct <= 1.0))} / {len(pct)} "
-                      f"| {sum(r.converged for r in rs)} / {len(rs)} | {' '.join(f'{p:.2f}' for p in pct)} |",
-                      flush=True)
+                      f"| {sum(r.converged for r in rs)} / {len(rs)} | {' '.join(f'{p:.2f}' for p in pct)} "
+                      f"| {' '.join(f'{r.seconds / r.inflation_seconds:.1f}×' for r in rs)} |", flush=True)
     return 0
 
 
