@@ -32,7 +32,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from check.compare import SURFACES, Deviation, deviation, realized_curvature
-from design.face_metric import length_keeping_face
+from design.face_metric import strings_named_face
 from check.length_map import length_map
 from check.monte_carlo import draw, summarize
 from inflation.mesh import build_mattress_mesh
@@ -185,12 +185,8 @@ def named_face(design, strings: StringSet) -> str:
     str
         ``"top"`` or ``"bottom"``.
     """
-    report = design.approx.report
-    face = None if report is None else report.metric.get("face")
-    if face in ("top", "bottom"):
-        return face
     share = np.abs([s.kappa for s in design.pattern.strings]) * np.linalg.norm(strings.b - strings.a, axis=1)
-    return length_keeping_face(share, strings.top)
+    return strings_named_face(design.approx.report, share, strings.top)
 
 
 def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(), envelope: bool = True,

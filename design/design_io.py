@@ -191,6 +191,8 @@ def _string(dash, k: int, path: Path, width: float, height: float) -> TensionStr
         float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
     free = dash.get("free_span_mm")
     free = None if free is None else _number(free, f"dash {did} free_span_mm", path) * MM
+    if free is not None and not 0.0 < free <= length + 0.01 * MM:       # L_mm and it rounded to 0.01 mm
+        raise InputError(f"dash {did}: free_span_mm must be in (0, L_mm], got {free / MM:g} mm", path=path)
     m = _ID.match(did)
     line, index = (int(m.group(1)), int(m.group(2))) if m else (0, k + 1)
     nodes = [_grid_node(dash.get(f"{end}_node"), f"dash {did} {end}_node", path) for end in ("a", "b")]

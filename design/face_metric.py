@@ -34,7 +34,7 @@ import numpy as np
 
 from airmat.geometry.topology import flat_vertex_areas, mesh_edges
 
-__all__ = ["FaceMetric", "face_metric", "named_face", "length_keeping_face", "relax_in_face_metric", "ROUNDS"]
+__all__ = ["FaceMetric", "face_metric", "named_face", "length_keeping_face", "strings_named_face", "relax_in_face_metric", "ROUNDS"]
 
 log = logging.getLogger(__name__)
 
@@ -130,6 +130,34 @@ def length_keeping_face(weights, top) -> str:
     """
     weights, top = np.asarray(weights, float), np.asarray(top, bool)
     return "top" if weights[~top].sum() >= weights[top].sum() else "bottom"
+
+
+def strings_named_face(report, share, top) -> str:
+    """The face Ŝ stands for, given its strings: the face of Ŝ's metric, else :func:`length_keeping_face`.
+
+    The one rule of the designer (Equation 3's free faces) and of the check (the face compared).
+
+    Parameters
+    ----------
+    report : design.constructibility.ConstructibilityReport or None
+        Its ``metric["face"]`` names the face Ŝ was relaxed in, when it was.
+    share : ndarray of shape (k,)
+        Each string's |κ| times its chord on Ω.
+    top : ndarray of shape (k,) of bool
+        True for a string on the top face.
+
+    Returns
+    -------
+    str
+        ``"top"`` or ``"bottom"``.
+
+    Examples
+    --------
+    >>> strings_named_face(None, [0.3, 0.1], [True, False])
+    'bottom'
+    """
+    face = None if report is None else report.metric.get("face")
+    return face if face in ("top", "bottom") else length_keeping_face(share, top)
 
 
 def face_metric(xyz, uv, faces, kappa, directions, *, thickness: float, kappa_min: float = 0.25,

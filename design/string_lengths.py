@@ -31,12 +31,12 @@ import numpy as np
 
 from airmat.geometry.polyline import points_at_fractions
 from calib.model import flat_length, kappa_max, string_length
-from design.face_metric import length_keeping_face
+from design.face_metric import strings_named_face
 from design.field import FAMILIES
 from design.free_face import free_face_ratio
 from design.pattern import Pattern, TensionString
 
-__all__ = ["dash_kappa", "length_quantiles", "string_pattern", "free_face_named"]
+__all__ = ["dash_kappa", "length_quantiles", "string_pattern"]
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +130,7 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     approx : design.surface.ApproxSurface, optional
         Ŝ: Equation 3 is then evaluated at each string's free-face span on it,
         min(c, 1) times the dash's span (:func:`design.free_face.free_face_ratio`, with
-        the named face of :func:`free_face_named`); None: at the dash's span.
+        the named face of :func:`design.face_metric.strings_named_face`); None: at the dash's span.
 
     Returns
     -------
@@ -148,13 +148,12 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     if approx is not None and len(idx_need):
         sides = np.where(kappa[idx_need] < 0, "top", "bottom")
         share = np.abs(kappa[idx_need]) * np.array([dashes[i].chord for i in idx_need])
-        named = free_face_named(approx, share, sides == "top")
+        named = strings_named_face(approx.report, share, sides == "top")
         c = free_face_ratio(approx.xyz, approx.uv, approx.faces, [dashes[i].polyline for i in idx_need], sides,
                             named=named, thickness=approx.mattress.thickness)
         eq3_spans[idx_need] = np.minimum(c, 1.0) * spans[idx_need]
     if len(idx_need):
-        q, unreachable = length_quantiles(np.abs(kappa[need]), eq3_spans[need] if snapped or approx is not None
-                                          else L, calibration.delta, calibration.d)
+        q, unreachable = length_quantiles(np.abs(kappa[need]), eq3_spans[need], calibration.delta, calibration.d)
     for j, i in enumerate(idx_need):
         dash = dashes[i]
         if q[0, j] >= med_flat[i]:  # numerically flat: no string
@@ -183,24 +182,3 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     return Pattern(strings=tuple(strings), L=float(L), n_dashes=n_dashes, n_no_string=n_no,
                    notes=tuple(notes) + tuple(extra), tie_grid=tie_grid)
 
-
-def free_face_named(approx, share, top) -> str:
-    """The face Ŝ stands for, as the check names it (:func:`check.inflation_check.named_face`).
-
-    Parameters
-    ----------
-    approx : design.surface.ApproxSurface
-        Its report's metric names the face Ŝ was relaxed in, when it was.
-    share : ndarray of shape (k,)
-        Each string's |κ| times its chord on Ω.
-    top : ndarray of shape (k,) of bool
-        True for a string on the top face.
-
-    Returns
-    -------
-    str
-        The face of Ŝ's metric, else the face opposite the larger share
-        (:func:`design.face_metric.length_keeping_face`).
-    """
-    face = None if approx.report is None else approx.report.metric.get("face")
-    return face if face in ("top", "bottom") else length_keeping_face(share, top)

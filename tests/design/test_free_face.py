@@ -106,6 +106,24 @@ def test_the_free_span_is_written_and_read_back(saddle_designs, tmp_path):
         assert b.free_span == pytest.approx(a.free_span, abs=0.006e-3)
 
 
+
+@pytest.mark.parametrize("bad", [0.0, -5.0, 400.0])
+def test_a_free_span_outside_its_dash_is_refused_naming_the_file(saddle_designs, tmp_path, bad):
+    import json
+
+    from airmat.errors import InputError
+    from design.design_io import read_design, write_design
+
+    write_design(saddle_designs[True], tmp_path / "d")
+    path = tmp_path / "d" / "design.json"
+    doc = json.loads(path.read_text())
+    doc["dashes"][0]["free_span_mm"] = bad
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="free_span_mm must be in") as err:
+        read_design(tmp_path / "d")
+    assert "design.json" in str(err.value.path)
+
+
 def test_monte_carlo_draws_use_the_span_each_length_came_from(saddle_designs):
     """With one posterior point and no scatter, the draws' median κ is each string's own κ only when
     Equation 3 is inverted at the span its length came from."""
