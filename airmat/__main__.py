@@ -1,11 +1,21 @@
-"""``python -m airmat``: the SIGINT handler goes in before any heavy import (see airmat.cli.sigint)."""
+"""``python -m airmat``: a SIGINT handler goes in before any import (see airmat.cli.sigint).
+
+Until :mod:`airmat.cli` installs its own, a plain handler turns Ctrl-C into
+KeyboardInterrupt, which the ``try`` below reports as one line and exit code
+130, so an interrupt while airmat.cli and its standard-library imports load
+(argparse, logging) gets the same answer as one during the run.
+"""
 
 import os
+import signal
 import sys
 
-from airmat.cli.sigint import install
 
-install()
+def _early(signum, frame):
+    raise KeyboardInterrupt
+
+
+signal.signal(signal.SIGINT, _early)
 
 try:
     from airmat.cli import main  # noqa: E402  (after the handler, on purpose)

@@ -4,6 +4,7 @@ Usage::
 
     .venv/bin/python bench/bench_dash_kappa.py [--presets vault1,saddle,dome,vault2,roof] [--resolution-mm 20]
     .venv/bin/python bench/bench_dash_kappa.py --refine     # the same, at the refined lengths
+    .venv/bin/python bench/bench_dash_kappa.py --calibrated-map   # checked through the calibrated length map
 
 Each preset is designed with the defaults (paper calibration values, seed 0),
 inflated at its median lengths (``check.inflation_check.check``, no envelope)
@@ -13,6 +14,9 @@ dashes within 10 %. ``--refine`` first refines the lengths through the inflation
 (:func:`check.refinement.refine`, defaults) and measures the refined design. Two measures of the realized curvature
 (:func:`check.compare.realized_curvature`): the turn of the face's normal
 over the dash (the check's) and the circle through its ends and middle.
+``--calibrated-map`` checks the open-loop designs with the calibrated length map
+(``check(..., calibrated_map=True)``: each real length simulated at the rest length at
+which the simulated specimen bends as the calibrated Equation 3 says).
 """
 
 from __future__ import annotations
@@ -43,7 +47,11 @@ def main(argv=None) -> int:
     ap.add_argument("--presets", default="vault1,saddle,dome,vault2,roof")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
     ap.add_argument("--refine", action="store_true", help="measure the refined designs")
+    ap.add_argument("--calibrated-map", action="store_true",
+                    help="check through the calibrated length map (open loop only)")
     args = ap.parse_args(argv)
+    if args.refine and args.calibrated_map:
+        ap.error("--calibrated-map measures the open-loop designs; drop --refine")
     print("| preset | family | dashes with \\|κ\\| ≥ 1 | turning: median | p10 – p90 | within 10 % "
           "| circle: median | p10 – p90 | within 10 % |")
     print("|---|---|---:|---:|---|---:|---:|---|---:|")
@@ -51,7 +59,7 @@ def main(argv=None) -> int:
         d = designed_preset(name)
         if args.refine:
             d = refine(d, resolution=args.resolution_mm * 1e-3).design
-        c = check(d, resolution=args.resolution_mm * 1e-3, envelope=False)
+        c = check(d, resolution=args.resolution_mm * 1e-3, envelope=False, calibrated_map=args.calibrated_map)
         run = c.runs["median"]
         strings = d.pattern.strings
         kappa = np.array([s.kappa for s in strings])

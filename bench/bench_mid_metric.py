@@ -16,7 +16,9 @@ named-face deviation of the default next to the mid-surface deviation of the
 experiment, % of the diagonal, at 20 mm. The relaxation is wrapped by
 replacing ``design.surface.relax_to_target`` for the experiment's designs,
 which are made with ``face_metric=False`` (the default named-face metric of
-design.face_metric would otherwise relax them once more).
+design.face_metric would otherwise relax them once more) and ``free_face_span=False``
+(design.free_face reads Ŝ as the named face, its free face d away; here Ŝ is the
+mid-surface, whose metric already holds the faces' shortening).
 """
 
 from __future__ import annotations
@@ -84,7 +86,7 @@ def main(argv=None) -> int:
         base = designed_preset(name)
         surface_module.relax_to_target = _mid_metric_relax(base.mattress.thickness)
         try:
-            mid = designed_preset(name, DesignParams(face_metric=False))
+            mid = designed_preset(name, DesignParams(face_metric=False, free_face_span=False))
         finally:
             surface_module.relax_to_target = _default_relax
         cells = [check(base, envelope=False).runs["median"].deviation.rms_pct_diag,

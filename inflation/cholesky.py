@@ -215,8 +215,19 @@ class ShiftedCholesky:
 
     @property
     def factor_nnz(self) -> int:
-        """Non-zeros of the Cholesky factor (after a successful :meth:`factor`)."""
-        return len(_import_cvxopt()[0].getfactor(self._symbolic)) if self._ok else 0
+        """Non-zeros of the Cholesky factor (after a successful :meth:`factor`; else 0).
+
+        CHOLMOD hands the factor out by converting it (``getfactor`` leaves a symbolic
+        factor behind), so the numeric factorization is then redone from the same values:
+        :meth:`solve` keeps working. That extra factorization is not counted in
+        ``n_factorizations``.
+        """
+        if not self._ok:
+            return 0
+        cholmod = _import_cvxopt()[0]
+        nnz = len(cholmod.getfactor(self._symbolic))
+        cholmod.numeric(self._a, self._symbolic)     # same values (shift included) as the last factor()
+        return nnz
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,) or (n, m)."""

@@ -13,15 +13,15 @@ written; Ctrl-C, one line and exit code 130 (:mod:`airmat.cli.sigint`).
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import logging
-import os
-import sys
-
 from airmat.cli import sigint
 
-sigint.install()  # before anything heavy: Ctrl-C works from the first instant
+sigint.install()  # before anything else, standard library included: Ctrl-C works from the first instant
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import logging  # noqa: E402
+import os  # noqa: E402
+import sys  # noqa: E402
 
 from airmat import __version__  # noqa: E402
 from airmat.cli._exit import BAD_INPUT, FAILED, INTERRUPTED  # noqa: E402

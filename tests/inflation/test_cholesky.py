@@ -111,3 +111,17 @@ def test_solve_takes_several_right_hand_sides_at_once():
     assert x.shape == (6, 4)
     np.testing.assert_allclose(x, np.linalg.solve(h.toarray(), b), rtol=1e-10)
     np.testing.assert_allclose(c.solve(b[:, 1]), x[:, 1], rtol=1e-12)
+
+
+def test_reading_the_factor_size_leaves_the_factorization_usable():
+    rng = np.random.default_rng(4)
+    h, groups = _laplacian_blocks(6, rng)
+    c = ShiftedCholesky(h, groups)
+    assert c.factor_nnz == 0                        # nothing factored yet
+    assert c.factor(h, 0.5)
+    nnz = c.factor_nnz
+    lower = int(sp.tril(h).nnz)
+    assert lower <= nnz <= h.shape[0] * (h.shape[0] + 1) // 2   # at least A's lower triangle (fill-in only adds)
+    b = rng.normal(size=h.shape[0])
+    np.testing.assert_allclose(c.solve(b), np.linalg.solve(h.toarray() + 0.5 * np.eye(h.shape[0]), b), rtol=1e-9)
+    assert c.n_factorizations == 1
