@@ -36,6 +36,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from inflation.cholmod_block import solve_many
+
 __all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "cvxopt_blas_kernels"]
 
 
@@ -230,11 +232,19 @@ class ShiftedCholesky:
         return nnz
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,) or (n, m)."""
+        """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,) or (n, m).
+
+        Several columns are solved together by CHOLMOD (:func:`inflation.cholmod_block.solve_many`),
+        else one at a time by cvxopt's ``cholmod.solve``: the same answer to rounding.
+        """
         if not self._ok:
             raise RuntimeError("no positive definite factorization to solve with")
         cholmod, matrix, _ = _import_cvxopt()
         b = np.asarray(b, dtype=float)
+        if b.ndim == 2 and b.shape[1] > 1:
+            x = solve_many(self._symbolic, b)       # all columns in one CHOLMOD call (inflation.cholmod_block)
+            if x is not None:
+                return x
         x = matrix(np.array(b, dtype=float, copy=True, order="F"))
         cholmod.solve(self._symbolic, x)
         return np.array(x).reshape(b.shape)

@@ -1,0 +1,91 @@
+"""Benchmark: the refinement's Jacobian solve, ``H X = B`` with one column per string, by cvxopt column by column vs CHOLMOD all at once.
+
+Usage::
+
+    .venv/bin/python bench/bench_jacobian_solve.py            # vault1, vault2 and the roof at 40 mm
+    .venv/bin/python bench/bench_jacobian_solve.py --quick    # vault1 only
+
+The refinement's Gauss–Newton iterations run on the 40 mm mesh (``refine(...,
+coarsest=0.04)``), and each one solves with the factor of the Newton matrix
+for as many right-hand sides as the design has strings
+(:func:`check.adjoint.equilibrium_jacobian`). The matrix here is U_B's
+Hessian at a slightly stretched flat mattress with the preset's strings (the
+solver's pattern and ordering, a shift making it positive definite), the
+right-hand sides random (a solve's cost does not depend on their values).
+Rows: ``cvxopt.cholmod.solve`` (one CHOLMOD call per column, what
+:class:`~inflation.cholesky.ShiftedCholesky` did before) and
+:func:`inflation.cholmod_block.solve_many` (one call for all columns), median
+of 3, and the largest difference between the two relative to the solution.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+import numpy as np  # noqa: E402
+
+from airmat.units import MM  # noqa: E402
+from designed_preset import designed_preset  # noqa: E402
+from check.inflation_check import design_strings  # noqa: E402
+from inflation.assembly import build_assembler  # noqa: E402
+from inflation.cholesky import ShiftedCholesky, _import_cvxopt, cvxopt_blas_kernels  # noqa: E402
+from inflation.cholmod_block import solve_many  # noqa: E402
+from inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
+from inflation.mesh import build_mattress_mesh  # noqa: E402
+from inflation.model import build_model  # noqa: E402
+from inflation.solver import rigid_pins  # noqa: E402
+
+
+def _median(fn, repeat: int = 3):
+    times, out = [], None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="vault1 only")
+    ap.add_argument("--resolution-mm", type=float, default=40.0)
+    args = ap.parse_args(argv)
+    cholmod, matrix, _ = _import_cvxopt()
+    print(f"OpenBLAS kernels (cvxopt's): {cvxopt_blas_kernels() or '?'}\n")
+    print("| preset | mattress (mm) | unknowns | factor non-zeros | right-hand sides (strings) "
+          "| cvxopt, column by column (s) | CHOLMOD, all at once (s) | speed-up | largest difference |")
+    print("|---|---|---|---|---|---|---|---|---|", flush=True)
+    for preset in (["vault1"] if args.quick else ["vault1", "vault2", "roof"]):
+        design = designed_preset(preset)
+        mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
+                                   resolution=args.resolution_mm * MM)
+        strings = design_strings(design)
+        model = build_model(mesh, strings)
+        asm = build_assembler(block_pattern(model), model.n_vertices, rigid_pins(mesh.uv, mesh.top))
+        h = asm.assemble(hessian_blocks(model, mesh.vertices * 1.001) + [smoothing_blocks(model)])
+        chol = ShiftedCholesky(h, asm.free // 3)
+        assert chol.factor(h, 1e-2 * float(np.mean(np.abs(h.diagonal()))))
+        b = np.random.default_rng(0).normal(size=(h.shape[0], len(strings.rest)))
+
+        def per_column():
+            x = matrix(np.asfortranarray(b))
+            cholmod.solve(chol._symbolic, x)
+            return np.array(x)
+
+        t_col, x_col = _median(per_column)
+        t_all, x_all = _median(lambda: solve_many(chol._symbolic, b))
+        diff = float(np.abs(x_all - x_col).max() / np.abs(x_col).max())
+        print(f"| {preset} | {design.mattress.width / MM:.0f} x {design.mattress.height / MM:.0f} | {h.shape[0]} "
+              f"| {chol.factor_nnz} | {b.shape[1]} | {t_col:.3f} | {t_all:.3f} | {t_col / t_all:.1f}x | {diff:.1e} |",
+              flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
