@@ -9,6 +9,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --alpha 1e-2 1e-3   # the regularization
     .venv/bin/python bench/bench_refine.py --presets all --reparametrize 0 1   # Ŝ as designed vs re-parametrized
     .venv/bin/python bench/bench_refine.py --presets saddle vault1 --reparametrize 0 1 --draws 8   # path spread
+    .venv/bin/python bench/bench_refine.py --presets roof --jacobian-solve per-column all-at-once
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -27,6 +28,10 @@ surface": the refined face's RMS distance from the nearest points of the designe
 Ŝ (its shape, whatever the parametrization); "Ŝ moved": how far the rounds moved
 Ŝ's points along it (RMS).
 
+``--jacobian-solve per-column all-at-once``: one row each with the Jacobian's right-hand
+sides solved by cvxopt one column at a time (as before ``inflation.cholmod_block``) and in
+one CHOLMOD call (the default), in a last column.
+
 ``--draws K`` measures how much the outcome depends on the Gauss–Newton path: K
 refinements of the same design, the first at its own lengths and the others with every
 open-loop real length moved by a uniform draw in ±``--jitter-um`` (5 µm by default, the
@@ -38,6 +43,7 @@ starts with (the same design at the same resolution, in the same process).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
@@ -70,6 +76,9 @@ def main(argv=None) -> int:
     ap.add_argument("--draws", type=int, default=1,
                     help="refinements per setting, all but the first with the lengths jittered (a spread table)")
     ap.add_argument("--jitter-um", type=float, default=5.0, help="half-width of the length jitter (µm)")
+    ap.add_argument("--jacobian-solve", nargs="+", choices=list(_JACOBIAN_SOLVES), default=None,
+                    help="the Jacobian's right-hand sides in one CHOLMOD call (all-at-once, the default) or "
+                         "cvxopt's column by column (per-column); one row each, in a last column")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
     if args.draws > 1:
@@ -77,19 +86,21 @@ def main(argv=None) -> int:
     print("| preset | mattress (mm) | GN mesh (mm) | corrections | alpha | re-param rounds | open loop RMS mm (% diag) "
           "| refined RMS mm (% diag) | refined, to Ŝ's surface mm (% diag) | max mm before / after | iterations "
           "| converged | refine (s) | one inflation (s) | verification (s) | ratio | dropped / flagged "
-          "| Ŝ moved (mm RMS) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| Ŝ moved (mm RMS) |" + (" Jacobian solve |" if args.jacobian_solve else ""))
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+          + ("---|" if args.jacobian_solve else ""))
     for name in names:
         design = designed_preset(name)
         m = design.mattress
         surface = MeshProjector(design.approx.xyz, design.approx.faces)
         diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
-        runs = [(c, n, a, k) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
-                for k in args.reparametrize if c > 0 or n == 0]
-        for coarsest, n, alpha, rounds in runs:
+        runs = [(c, n, a, k, j) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
+                for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"]) if c > 0 or n == 0]
+        for coarsest, n, alpha, rounds, jac in runs:
             kw = _options(alpha, rounds)
-            r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter, coarsest=coarsest * MM,
-                       corrections=n, **kw)
+            with _JACOBIAN_SOLVES[jac]():
+                r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
+                           coarsest=coarsest * MM, corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
             gn = r.coarse_resolution if r.coarse_resolution is not None else r.resolution
             near = surface.closest_extended(a.aligned).distance
@@ -102,9 +113,25 @@ def main(argv=None) -> int:
                   f"| {to_surface / MM:.1f} ({100 * to_surface / diag:.2f}) | {b.max / MM:.1f} / "
                   f"{a.max / MM:.1f} | {r.iterations} | {'yes' if r.converged else 'no'} | {r.seconds:.1f} "
                   f"| {r.inflation_seconds:.1f} | {r.verification_seconds:.1f} "
-                  f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |",
-                  flush=True)
+                  f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |"
+                  + (f" {jac} |" if args.jacobian_solve else ""), flush=True)
     return 0
+
+
+@contextlib.contextmanager
+def _per_column():
+    """The Jacobian solved by cvxopt one column at a time (inflation.cholmod_block disabled)."""
+    import inflation.cholesky as cholesky
+
+    keep = cholesky.solve_many
+    cholesky.solve_many = lambda factor, b: None
+    try:
+        yield
+    finally:
+        cholesky.solve_many = keep
+
+
+_JACOBIAN_SOLVES = {"all-at-once": contextlib.nullcontext, "per-column": _per_column}
 
 
 def _options(alpha, rounds) -> dict:

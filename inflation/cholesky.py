@@ -38,7 +38,7 @@ import scipy.sparse as sp
 
 from inflation.cholmod_block import solve_many
 
-__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "cvxopt_blas_kernels"]
+__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "import_cvxopt", "cvxopt_blas_kernels"]
 
 
 def openblas_coretype(flags: set[str] | None = None) -> str | None:
@@ -78,7 +78,7 @@ def openblas_coretype(flags: set[str] | None = None) -> str | None:
 
 
 @functools.cache
-def _import_cvxopt():
+def import_cvxopt():
     """Import cvxopt with its OpenBLAS told which kernels to use (see the module docstring).
 
     Called by the first factorization, not at import: importing the solver stays cheap.
@@ -100,7 +100,7 @@ def cvxopt_blas_kernels() -> str | None:
     import ctypes
     import glob
 
-    _import_cvxopt()                            # loads it, with the kernel family chosen above
+    import_cvxopt()                            # loads it, with the kernel family chosen above
     import cvxopt
 
     libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
@@ -170,7 +170,7 @@ class ShiftedCholesky:
     """
 
     def __init__(self, pattern: sp.csr_matrix, groups: np.ndarray | None = None):
-        cholmod, matrix, spmatrix = _import_cvxopt()
+        cholmod, matrix, spmatrix = import_cvxopt()
         coo = sp.csr_matrix(pattern).tocoo()
         self.n = int(pattern.shape[0])
         lower = coo.row >= coo.col
@@ -202,7 +202,7 @@ class ShiftedCholesky:
         mu : float
             Diagonal shift.
         """
-        cholmod, matrix, _ = _import_cvxopt()
+        cholmod, matrix, _ = import_cvxopt()
         vals = h.data[self._take].astype(float, copy=True)
         vals[self._diag] += mu
         self.n_factorizations += 1
@@ -226,22 +226,23 @@ class ShiftedCholesky:
         """
         if not self._ok:
             return 0
-        cholmod = _import_cvxopt()[0]
+        cholmod = import_cvxopt()[0]
         nnz = len(cholmod.getfactor(self._symbolic))
         cholmod.numeric(self._a, self._symbolic)     # same values (shift included) as the last factor()
         return nnz
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
+    def solve(self, b: np.ndarray, one_call: bool = True) -> np.ndarray:
         """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,) or (n, m).
 
-        Several columns are solved together by CHOLMOD (:func:`inflation.cholmod_block.solve_many`),
-        else one at a time by cvxopt's ``cholmod.solve``: the same answer to rounding.
+        With ``one_call`` (the default) several columns are solved together by CHOLMOD
+        (:func:`inflation.cholmod_block.solve_many`), else (or where that cannot solve) one at a
+        time by cvxopt's ``cholmod.solve``: the same answer to rounding.
         """
         if not self._ok:
             raise RuntimeError("no positive definite factorization to solve with")
-        cholmod, matrix, _ = _import_cvxopt()
+        cholmod, matrix, _ = import_cvxopt()
         b = np.asarray(b, dtype=float)
-        if b.ndim == 2 and b.shape[1] > 1:
+        if one_call and b.ndim == 2 and b.shape[1] > 1:
             x = solve_many(self._symbolic, b)       # all columns in one CHOLMOD call (inflation.cholmod_block)
             if x is not None:
                 return x

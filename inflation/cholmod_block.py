@@ -67,9 +67,9 @@ class _Library:
 @functools.cache
 def _library() -> _Library | None:
     """cvxopt's libcholmod when it is CHOLMOD 3 to 5 with the long-integer interface; else None."""
-    from inflation.cholesky import _import_cvxopt
+    from inflation.cholesky import import_cvxopt
 
-    _import_cvxopt()                                # loads it (with the BLAS kernels chosen there)
+    import_cvxopt()                                # loads it (with the BLAS kernels chosen there)
     import cvxopt
 
     paths = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libcholmod*"))
