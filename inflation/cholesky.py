@@ -28,6 +28,7 @@ override) while cvxopt loads; a value the user has set wins.
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import os
 import sys
@@ -38,7 +39,8 @@ import scipy.sparse as sp
 
 from inflation.cholmod_block import solve_many
 
-__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "import_cvxopt", "cvxopt_blas_kernels"]
+__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "import_cvxopt", "cvxopt_bundled_library",
+           "cvxopt_blas_kernels"]
 
 
 def openblas_coretype(flags: set[str] | None = None) -> str | None:
@@ -95,18 +97,23 @@ def import_cvxopt():
 
 
 
-def cvxopt_blas_kernels() -> str | None:
-    """The kernel family cvxopt's bundled OpenBLAS runs (e.g. ``"SkylakeX"``), or None without one."""
-    import ctypes
+def cvxopt_bundled_library(name: str) -> ctypes.CDLL | None:
+    """One of the shared libraries cvxopt's wheel bundles (``"openblas"``, ``"cholmod"``), loaded
+    by cvxopt (with the kernel family chosen above): the same handle; None without exactly one."""
     import glob
 
-    import_cvxopt()                            # loads it, with the kernel family chosen above
+    import_cvxopt()
     import cvxopt
 
-    libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libopenblas*"))
-    if not libs:
+    libs = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", f"lib{name}*"))
+    return ctypes.CDLL(libs[0]) if len(libs) == 1 else None
+
+
+def cvxopt_blas_kernels() -> str | None:
+    """The kernel family cvxopt's bundled OpenBLAS runs (e.g. ``"SkylakeX"``), or None without one."""
+    lib = cvxopt_bundled_library("openblas")
+    if lib is None:
         return None
-    lib = ctypes.CDLL(libs[0])                  # already loaded by cvxopt: the same library
     lib.openblas_get_corename.restype = ctypes.c_char_p
     return lib.openblas_get_corename().decode()
 

@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import glob
-import os
 import threading
 
 import numpy as np
@@ -67,16 +65,12 @@ class _Library:
 @functools.cache
 def _library() -> _Library | None:
     """cvxopt's libcholmod when it is CHOLMOD 3 to 5 with the long-integer interface; else None."""
-    from inflation.cholesky import import_cvxopt
+    from inflation.cholesky import cvxopt_bundled_library
 
-    import_cvxopt()                                # loads it (with the BLAS kernels chosen there)
-    import cvxopt
-
-    paths = glob.glob(os.path.join(os.path.dirname(cvxopt.__file__), os.pardir, "cvxopt.libs", "libcholmod*"))
-    if len(paths) != 1:
-        return None
     try:
-        lib = ctypes.CDLL(paths[0])                 # the library cvxopt has loaded: the same handle
+        lib = cvxopt_bundled_library("cholmod")     # the library cvxopt has loaded: the same handle
+        if lib is None:
+            return None
         version = (ctypes.c_int * 3)()
         lib.cholmod_l_version(version)
         if not 3 <= version[0] <= 5:
