@@ -10,6 +10,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets all --reparametrize 0 1   # Ŝ as designed vs re-parametrized
     .venv/bin/python bench/bench_refine.py --presets saddle vault1 --reparametrize 0 1 --draws 8   # path spread
     .venv/bin/python bench/bench_refine.py --presets roof --jacobian-solve per-column all-at-once
+    .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --draws 4 --damping-hold 0 1
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -31,6 +32,10 @@ surface": the refined face's RMS distance from the nearest points of the designe
 ``--jacobian-solve per-column all-at-once``: one row each with the Jacobian's right-hand
 sides solved by cvxopt one column at a time (as before ``inflation.cholmod_block``) and in
 one CHOLMOD call (the default), in a last column.
+
+``--damping-hold 0 1``: one row (or spread row) each with the Gauss–Newton damping shrunk
+after every well-predicted step (0, the rule before) and held after an iteration that had to
+grow it (1, the default; ``check.gauss_newton.HOLD_AFTER_RETRY``), in a last column.
 
 ``--draws K`` measures how much the outcome depends on the Gauss–Newton path: K
 refinements of the same design, the first at its own lengths and the others with every
@@ -79,6 +84,9 @@ def main(argv=None) -> int:
     ap.add_argument("--jacobian-solve", nargs="+", choices=list(_JACOBIAN_SOLVES), default=None,
                     help="the Jacobian's right-hand sides in one CHOLMOD call (all-at-once, the default) or "
                          "cvxopt's column by column (per-column); one row each, in a last column")
+    ap.add_argument("--damping-hold", type=int, nargs="+", choices=(0, 1), default=None,
+                    help="1: the damping is held after an iteration that had to grow it (the default); "
+                         "0: shrunk after every well-predicted step (the rule before); one row each, in a last column")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
     if args.draws > 1:
@@ -86,19 +94,21 @@ def main(argv=None) -> int:
     print("| preset | mattress (mm) | GN mesh (mm) | corrections | alpha | re-param rounds | open loop RMS mm (% diag) "
           "| refined RMS mm (% diag) | refined, to Ŝ's surface mm (% diag) | max mm before / after | iterations "
           "| converged | refine (s) | one inflation (s) | verification (s) | ratio | dropped / flagged "
-          "| Ŝ moved (mm RMS) |" + (" Jacobian solve |" if args.jacobian_solve else ""))
+          "| Ŝ moved (mm RMS) |" + (" Jacobian solve |" if args.jacobian_solve else "")
+          + (" damping held |" if args.damping_hold else ""))
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-          + ("---|" if args.jacobian_solve else ""))
+          + ("---|" if args.jacobian_solve else "") + ("---|" if args.damping_hold else ""))
     for name in names:
         design = designed_preset(name)
         m = design.mattress
         surface = MeshProjector(design.approx.xyz, design.approx.faces)
         diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
         runs = [(c, n, a, k, j) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
-                for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"]) if c > 0 or n == 0]
-        for coarsest, n, alpha, rounds, jac in runs:
+                for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"])
+                for h in (args.damping_hold or [None]) if c > 0 or n == 0]
+        for coarsest, n, alpha, rounds, jac, hold in runs:
             kw = _options(alpha, rounds)
-            with _JACOBIAN_SOLVES[jac]():
+            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold):
                 r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
                            coarsest=coarsest * MM, corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
@@ -114,7 +124,8 @@ def main(argv=None) -> int:
                   f"{a.max / MM:.1f} | {r.iterations} | {'yes' if r.converged else 'no'} | {r.seconds:.1f} "
                   f"| {r.inflation_seconds:.1f} | {r.verification_seconds:.1f} "
                   f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |"
-                  + (f" {jac} |" if args.jacobian_solve else ""), flush=True)
+                  + (f" {jac} |" if args.jacobian_solve else "")
+                  + (f" {'yes' if hold else 'no'} |" if args.damping_hold else ""), flush=True)
     return 0
 
 
@@ -132,6 +143,20 @@ def _per_column():
 
 
 _JACOBIAN_SOLVES = {"all-at-once": contextlib.nullcontext, "per-column": _per_column}
+
+
+@contextlib.contextmanager
+def _damping_hold(hold):
+    """check.gauss_newton.HOLD_AFTER_RETRY set to ``hold`` (None: left as it is)."""
+    import check.gauss_newton as gn
+
+    keep = gn.HOLD_AFTER_RETRY
+    if hold is not None:
+        gn.HOLD_AFTER_RETRY = bool(hold)
+    try:
+        yield
+    finally:
+        gn.HOLD_AFTER_RETRY = keep
 
 
 def _options(alpha, rounds) -> dict:
@@ -154,20 +179,23 @@ def jittered(design, seed: int, half_width: float):
 def spread(names, args) -> int:
     """One row per preset and setting: the refined deviation over ``args.draws`` jittered refinements."""
     print(f"| preset | alpha | re-param rounds | draws (±{args.jitter_um:g} µm) | refined % diag: median | min – max "
-          "| ≤ 1 % | converged | refined % diag, each draw | refine / its first inflation, each draw |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "| ≤ 1 % | converged | refined % diag, each draw | refine / its first inflation, each draw |"
+          + (" damping held |" if args.damping_hold else ""))
+    print("|---|---|---|---|---|---|---|---|---|---|" + ("---|" if args.damping_hold else ""))
     for name in names:
         design = designed_preset(name)
         for alpha in args.alpha:
-            for rounds in args.reparametrize:
+            for rounds, hold in [(k, h) for k in args.reparametrize for h in (args.damping_hold or [None])]:
                 kw = _options(alpha, rounds)
-                rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
-                             max_iter=args.max_iter, **kw) for k in range(args.draws)]
+                with _damping_hold(hold):
+                    rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
+                                 max_iter=args.max_iter, **kw) for k in range(args.draws)]
                 pct = np.array([r.deviation_after.rms_pct_diag for r in rs])
                 print(f"| {name} | {rs[0].alpha:g} | {rs[0].reparametrize_rounds} | {args.draws} | {np.median(pct):.2f} "
                       f"| {pct.min():.2f} – {pct.max():.2f} | {int(np.sum(pct <= 1.0))} / {len(pct)} "
                       f"| {sum(r.converged for r in rs)} / {len(rs)} | {' '.join(f'{p:.2f}' for p in pct)} "
-                      f"| {' '.join(f'{r.seconds / r.inflation_seconds:.1f}×' for r in rs)} |", flush=True)
+                      f"| {' '.join(f'{r.seconds / r.inflation_seconds:.1f}×' for r in rs)} |"
+                      + (f" {'yes' if hold else 'no'} |" if args.damping_hold else ""), flush=True)
     return 0
 
 

@@ -31,7 +31,8 @@ trial's model rebuilds only the strings' term
 shortest a tie allows (real l = 0, through the length map) to the string's
 flat span (no bend). A step is taken only when it realizes more than a
 quarter of the decrease its model predicted (ρ > 0.25,
-:data:`check.gauss_newton.ACCEPT`). Stopping rule: over an accepted step, a
+:data:`check.gauss_newton.ACCEPT`); the damping shrinks only after an
+iteration whose first trial was taken. Stopping rule: over an accepted step, a
 decrease of the RMS below ``rms_tol`` or a relative decrease of the objective
 below ``ftol``; or a step shorter than ``xtol`` × the mean span.
 

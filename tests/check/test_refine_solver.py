@@ -234,3 +234,33 @@ def test_a_step_that_realizes_under_a_quarter_of_its_predicted_decrease_is_not_t
     root = (-1.0 + np.sqrt(1.0 + 4.0 * prob.a * prob.c)) / (2.0 * prob.a)
     done = gauss_newton(_Overshoot(), np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=30, **kw)
     assert done["converged"] and done["l"][0] == pytest.approx(root, abs=1e-6)
+
+
+
+class _OutOfReach(_Overshoot):
+    """The linear stand-in (r = l - c) whose trial equilibria fail beyond l = ``reach``, as a trial that runs
+    out of Newton iterations does: the steps that are taken realize what their model predicted (rho = 1)."""
+
+    def __init__(self, reach):
+        super().__init__(a=0.0)
+        self.reach = reach
+
+    def equilibrium(self, rest, x0, max_newton=None):
+        eq = super().equilibrium(rest, x0, max_newton)
+        return eq if rest[0] <= self.reach else None
+
+
+def test_the_damping_shrinks_only_after_an_iteration_whose_first_step_was_taken():
+    # after an iteration that had to grow the damping (a trial without an equilibrium, or refused), the next
+    # one starts from the damping that worked, not a third of it: on the dome the shrunk damping's first
+    # trials failed again and again (README, Refinement: "Which steps are taken")
+    from check.gauss_newton import LAM_DOWN, gauss_newton
+    kw = dict(alpha=1e-12, ftol=1e-12, xtol=1e-12, rms_tol=0.0)
+    lo, hi, x0 = np.array([-10.0]), np.array([10.0]), np.zeros((1, 3))
+    prob = _OutOfReach(reach=0.9)
+    one = gauss_newton(prob, np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=1, lam0=1e-3, **kw)
+    assert len(prob.trials) > 1 and max(prob.trials[:-1]) > 0.9 and one["l"][0] == prob.trials[-1] <= 0.9
+    assert one["lam"] == pytest.approx(1e-3 * 4.0 ** (len(prob.trials) - 1))   # held where the step was taken
+    free = _OutOfReach(reach=np.inf)                    # the first step is taken (rho = 1): the damping shrinks
+    first = gauss_newton(free, np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=1, lam0=1e-3, **kw)
+    assert len(free.trials) == 1 and first["lam"] == pytest.approx(1e-3 / LAM_DOWN)
