@@ -93,6 +93,9 @@ def run(args) -> int:
     calibration = load_calibration(args.calibration) if args.calibration else None
     out = Path(args.out)
     rows, results, timings, what = [], {}, {}, []
+    head = header(args.refine)
+    sep = "|" + "---|" * (head.count("|") - 1)
+    print(head, sep, sep="\n", flush=True)      # the rows follow as each preset is done: one table on stdout
     with staged(out) as tmp:
         for name in names:
             target, mattress = chosen[name]
@@ -122,11 +125,9 @@ def run(args) -> int:
                      + refine_not_converged(refinement)
                      + check_not_converged(checked)]
             print(rows[-1], flush=True)
-        head = header(args.refine)
-        sep = "|" + "---|" * (head.count("|") - 1)
         table = "\n".join([head, sep] + rows)
         atomic_write_text(tmp / "gallery.md", table + "\n")
         results["timings_s"] = timings  # the one field that differs between runs of the same inputs
         atomic_write_text(tmp / "gallery.json", dumps(results, indent=2) + "\n")
-    print(f"\n{table}\n\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
+    print(f"\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
     return not_converged("gallery", what)
