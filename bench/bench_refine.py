@@ -51,6 +51,7 @@ import argparse
 import contextlib
 import sys
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 
@@ -103,7 +104,7 @@ def main(argv=None) -> int:
         m = design.mattress
         surface = MeshProjector(design.approx.xyz, design.approx.faces)
         diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
-        runs = [(c, n, a, k, j) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
+        runs = [(c, n, a, k, j, h) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
                 for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"])
                 for h in (args.damping_hold or [None]) if c > 0 or n == 0]
         for coarsest, n, alpha, rounds, jac, hold in runs:
@@ -129,34 +130,21 @@ def main(argv=None) -> int:
     return 0
 
 
-@contextlib.contextmanager
 def _per_column():
     """The Jacobian solved by cvxopt one column at a time (inflation.cholmod_block disabled)."""
     import inflation.cholesky as cholesky
 
-    keep = cholesky.solve_many
-    cholesky.solve_many = lambda factor, b: None
-    try:
-        yield
-    finally:
-        cholesky.solve_many = keep
+    return mock.patch.object(cholesky, "solve_many", lambda factor, b: None)
 
 
 _JACOBIAN_SOLVES = {"all-at-once": contextlib.nullcontext, "per-column": _per_column}
 
 
-@contextlib.contextmanager
 def _damping_hold(hold):
     """check.gauss_newton.HOLD_AFTER_RETRY set to ``hold`` (None: left as it is)."""
     import check.gauss_newton as gn
 
-    keep = gn.HOLD_AFTER_RETRY
-    if hold is not None:
-        gn.HOLD_AFTER_RETRY = bool(hold)
-    try:
-        yield
-    finally:
-        gn.HOLD_AFTER_RETRY = keep
+    return contextlib.nullcontext() if hold is None else mock.patch.object(gn, "HOLD_AFTER_RETRY", bool(hold))
 
 
 def _options(alpha, rounds) -> dict:
