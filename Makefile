@@ -17,11 +17,15 @@ $(STAMP): pyproject.toml scripts/bootstrap.sh
 demo: $(STAMP)
 	$(VENV)/bin/airmat demo --out $(OUT)
 
+# the suite's tests are independent: one worker process per core, at most 4 (pytest-xdist; work stealing
+# evens out the long end-to-end tests)
+XDIST  := -n auto --maxprocesses 4 --dist worksteal
+
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(XDIST)
 
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q $(XDIST) -m "not slow"
 
 bench: $(STAMP)
 	$(PY) -m pip install -q -e ".[bench]"
