@@ -105,6 +105,7 @@ class MeshProjector:
                          vertices[self._faces[:, 2]] - vertices[self._faces[:, 0]])
         self._unit_normal = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
         self._rim_edge, self._rim_vertex = boundary_face_flags(self._faces, len(vertices))
+        self._rim_face = self._rim_edge.any(axis=1) | self._rim_vertex[self._faces].any(axis=1)
         tri = vertices[self._faces]
         side = np.linalg.norm(tri[:, [2, 0, 1]] - tri[:, [1, 2, 0]], axis=2)   # side opposite corner i
         # altitude onto the side opposite corner i: the distance per unit of barycentric coordinate i
@@ -128,13 +129,22 @@ class MeshProjector:
                              on_rim=self._on_rim(tri, face, cp))
 
     def _on_rim(self, tri, face, cp):
-        """Whether each closest point ``cp`` (k, 3) on triangle ``face`` (k,) lies on the mesh's rim."""
+        """Whether each closest point ``cp`` (k, 3) on triangle ``face`` (k,) lies on the mesh's rim.
+
+        Only the points whose face touches the rim (a rim edge or a rim corner) are tested: the
+        others cannot be on it, and the test is row by row, so the answer is the same bits."""
+        out = np.zeros(len(face), bool)
+        near = np.flatnonzero(self._rim_face[face])
+        if not len(near):
+            return out
+        tri, face, cp = tri[near], face[near], cp[near]
         with np.errstate(invalid="ignore", divide="ignore"):
             bary = points_to_barycentric(tri, cp)
         on_edge = (bary * self._altitude[face] < self._rim_tol) & self._rim_edge[face]
         at_vertex = ((np.linalg.norm(tri - cp[:, None], axis=2) < self._rim_tol)
                      & self._rim_vertex[self._faces[face]])
-        return (on_edge | at_vertex).any(axis=1)
+        out[near] = (on_edge | at_vertex).any(axis=1)
+        return out
 
     def closest_extended(self, points: np.ndarray) -> ClosestPoints:
         """Closest points on the mesh continued across its rim by the rim faces' tangent planes.
