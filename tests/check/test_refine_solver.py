@@ -236,7 +236,6 @@ def test_a_step_that_realizes_under_a_quarter_of_its_predicted_decrease_is_not_t
     assert done["converged"] and done["l"][0] == pytest.approx(root, abs=1e-6)
 
 
-
 class _OutOfReach(_Overshoot):
     """The linear stand-in (r = l - c) whose trial equilibria fail beyond l = ``reach``, as a trial that runs
     out of Newton iterations does: the steps that are taken realize what their model predicted (rho = 1)."""

@@ -80,21 +80,15 @@ def test_cylinder_continued_along_its_axis_and_by_its_tangent_plane():
     assert np.linalg.norm(q - got) < 0.5 * near.distance[0]
 
 
-def test_the_rim_test_of_the_faces_touching_the_rim_is_the_test_of_every_point(square):
-    # _on_rim tests only the points whose face has a rim edge or corner; tested on all of them
-    # (the test it replaced), every point gets the same answer
-    from trimesh.triangles import points_to_barycentric
-
+def test_the_rim_test_of_the_faces_touching_the_rim_is_the_test_of_every_point(square, monkeypatch):
+    # _on_rim tests only the points whose face has a rim edge or corner; with every face counted as
+    # touching the rim (the test it replaced, of every point) each point gets the same answer
     rng = np.random.default_rng(3)
     p = np.column_stack([rng.uniform(-0.2, 1.2, (3000, 2)), rng.uniform(-0.3, 0.3, 3000)])
     p[:50, :2] = np.round(p[:50, :2], 1)                  # on grid lines and corners, inside and on the rim
     near = square.closest(p)
-    face = near.face
-    tri = square._vertices[square._faces[face]]
-    bary = points_to_barycentric(tri, near.points)
-    on_edge = (bary * square._altitude[face] < square._rim_tol) & square._rim_edge[face]
-    at_vertex = ((np.linalg.norm(tri - near.points[:, None], axis=2) < square._rim_tol)
-                 & square._rim_vertex[square._faces[face]])
-    every = (on_edge | at_vertex).any(axis=1)
+    tri = square._vertices[square._faces[near.face]]
+    assert (~square._rim_face[near.face]).sum() > len(p) // 4     # the restriction skips many of them
+    monkeypatch.setattr(square, "_rim_face", np.ones_like(square._rim_face))
+    every = square._on_rim(tri, near.face, near.points)
     assert 0 < every.sum() < len(p) and np.array_equal(near.on_rim, every)
-    assert (~square._rim_face[face]).sum() > len(p) // 4  # and it skipped the test of many of them
