@@ -25,6 +25,8 @@ import numpy as np
 from airmat.errors import InputError
 from airmat.geometry.topology import face_edges
 from airmat.units import SCAN_UNITS
+from calib.scan_readers.mesh_complete import check_complete
+from calib.scan_readers.raw import library_message
 
 __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
 
@@ -198,7 +200,8 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     Raises
     ------
     airmat.errors.InputError
-        With ``path`` set: missing or unreadable file, unknown format or
+        With ``path`` set: missing or unreadable file, a file cut short
+        (:mod:`calib.scan_readers.mesh_complete`), unknown format or
         units, empty mesh, non-triangle faces, NaN/inf coordinates,
         non-manifold edges, a size that does not fit the mattress.
     """
@@ -213,11 +216,13 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
                          f"{', '.join('.' + f for f in FORMATS)}", path=path)
     if not path.is_file():
         raise InputError("target file not found", path=path)
+    check_complete(path)   # a file cut short would otherwise give part of the surface, or a cryptic error
     try:
         mesh = trimesh.load(path, file_type=ext, process=False, force="mesh")
         declared = _declared_polygons(path, mesh)
     except (ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the target as {ext.upper()}: {exc}", path=path) from exc
+        raise InputError(f"cannot read the target as {ext.upper()} (corrupt?): {library_message(exc)}",
+                         path=path) from exc
     vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float)
     faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3), int)))
     if declared is not None and 0 < declared < len(faces):

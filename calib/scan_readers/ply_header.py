@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from airmat.errors import InputError
 
 __all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32"]
@@ -27,9 +29,13 @@ def ply_vertex_float32(path: Path) -> bool:
 def check_ply_complete(path: Path) -> None:
     """Raise InputError when a PLY header is missing or the body is cut short.
 
-    trimesh notices most truncations, but silently accepts an ascii body cut
-    inside its last line; this checks the header's element counts against
-    the body (byte size for binary, the last line of each element for ascii).
+    trimesh silently accepts an ascii body cut inside its last line or a face
+    element cut short, and names a binary truncation only as "unexpected
+    length"; this checks the header's element counts against the body: for
+    ascii the rows of each element and the values of its last row (a list
+    property holds as many values as its count says), for binary the least
+    body size the header allows (every list empty: exact when there is no
+    list property).
     """
     try:
         fh = open(path, "rb")
@@ -44,7 +50,9 @@ def check_ply_complete(path: Path) -> None:
         header = head[:body_start].decode("ascii", errors="replace").split("\n")
         elements = ply_elements(header, path)
         if not any(line.split()[:2] == ["format", "ascii"] for line in header):
-            return  # binary: trimesh checks the byte count itself
+            little = any(line.split()[:2] == ["format", "binary_little_endian"] for line in header)
+            _check_binary_size(elements, fh, body_start, little, path)
+            return
         fh.seek(body_start)
         lines = fh.read().decode("ascii", errors="replace").split("\n")
     lines = [ln for ln in lines if ln.strip()]
@@ -57,10 +65,76 @@ def check_ply_complete(path: Path) -> None:
             raise InputError(f"truncated PLY: element {name!r} declares {count} rows, "
                              f"the file has {max(len(lines) - start, 0)}", path=path)
         tokens = lines[last].split()
-        if all(not p.startswith("list") for p in props) and len(tokens) != len(props):
-            raise InputError(f"truncated PLY: last {name!r} row has {len(tokens)} values, "
-                             f"expected {len(props)}", path=path)
+        expected = _row_values(props, tokens)
+        if expected != len(tokens):
+            raise InputError(f"truncated PLY: last {name!r} row has {len(tokens)} values, expected "
+                             f"{expected if expected is not None else 'a list count first'}", path=path)
         start += count
+
+
+def _row_values(props, tokens) -> int | None:
+    """How many values an ascii row of an element with properties ``props`` must hold, its list
+    properties' counts read from the row's ``tokens``; None when a list's count is missing or not
+    an integer."""
+    i = 0
+    for prop in props:
+        if prop.startswith("list"):
+            if i >= len(tokens) or not tokens[i].isdigit():
+                return None
+            i += 1 + int(tokens[i])
+        else:
+            i += 1
+    return i
+
+
+#: bytes of a PLY scalar type
+_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
+          "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _check_binary_size(elements, fh, body_start: int, little: bool, path) -> None:
+    """Raise InputError when a binary body is shorter than its header allows.
+
+    Scalar properties have fixed sizes; a list counts as empty (a lower bound), except
+    in an element whose only property is a list (a face element) after fixed-size
+    elements only: its rows are taken as long as its first (exact for triangles), and
+    a body too short for that is refused only when every row it holds is that long
+    (a mesh of triangles and quads is left to the reader).
+    """
+    fh.seek(0, 2)
+    body = fh.tell() - body_start
+    least, fixed, uniform = 0, True, None
+    for _, count, props in elements:
+        words = [prop.split() for prop in props]
+        # "list <count type> <item type>": its count's size; a scalar: its size
+        sizes = [_SIZES.get(w[1] if w[0] == "list" and len(w) > 2 else w[0]) for w in words if w]
+        if None in sizes or len(sizes) != len(props):
+            return  # a type this check does not know: leave the file to the reader
+        row = sum(sizes)
+        lists = [w[0] == "list" for w in words]
+        if lists == [True] and fixed and count and uniform is None and words[0][2] in _SIZES:
+            fh.seek(body_start + least)
+            first = fh.read(sizes[0])
+            if len(first) == sizes[0]:
+                row += int.from_bytes(first, "little" if little else "big") * _SIZES[words[0][2]]
+                uniform = (least, count, row, first)
+        elif any(lists):
+            fixed = False
+        least += count * row
+    if body >= least:
+        return
+    if uniform is not None:
+        start, count, row, first = uniform
+        fh.seek(body_start + start)
+        data = np.frombuffer(fh.read(min(count * row, body - start)), np.uint8)
+        at = np.arange(0, len(data) - len(first) + 1, row)   # where each row's count would start
+        counts = data[at[:, None] + np.arange(len(first))]
+        if not (counts == np.frombuffer(first, np.uint8)).all():
+            return  # rows of other lengths: the reader decides
+    listed = ", ".join(f"{count} {name}" for name, count, _ in elements if count)
+    need = f"{least} bytes with every face as long as the first" if uniform is not None else f"at least {least} bytes"
+    raise InputError(f"truncated PLY: the header declares {listed}, which take {need}; the body has {body}",
+                     path=path)
 
 
 def ply_elements(header, path):

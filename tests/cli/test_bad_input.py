@@ -31,6 +31,11 @@ def good(tmp_path_factory):
     (root / "flat_faces.obj").write_text(   # points spread over the plane, every face a straight row
         "".join(f"v {160 * i} {140 * j} 0\n" for j in range(6) for i in range(6))
         + "".join(f"f {6 * j + i + 1} {6 * j + i + 2} {6 * j + i + 3}\n" for j in range(6) for i in range(4)))
+    (root / "cut.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                  "end_header\n0 0 0\n800 0 0\n0 700 0\n3 0 1\n")   # a copy that stopped
+    scan = (root / "set" / "specimen_00.ply").read_bytes()
+    (root / "cut_scan.ply").write_bytes(scan[:len(scan) // 2])
     return root
 
 
@@ -99,6 +104,7 @@ SCAN = lambda good, tmp_path: str(good / "set" / "specimen_00.ply")  # noqa: E73
 CASES = {
     "fit-seed": ("fit", [SCAN, "--seed", "-1"], "--seed: must be in [0, 2**32), got -1"),
     "fit-noise": ("fit", [SCAN, "--noise-mm", "0"], "--noise-mm must be > 0"),
+    "fit-cut": ("fit", [target("cut_scan.ply")], "cut_scan.ply: truncated PLY: the header declares"),
     "synth-seed": ("synth", ["OUT", "--seed", "-1"], "--seed: must be in [0, 2**32)"),
     "synth-seed-text": ("synth", ["OUT", "--seed", "one"], "expected an integer"),
     "synth-d": ("synth", ["OUT", "--d-mm", "1e6"], "--d-mm: 1e+06 mm is outside [10, 500] mm"),
@@ -124,6 +130,8 @@ CASES = {
                          "--thickness-mm: 1e+06 mm is outside [10, 500] mm"),
     "design-collinear": ("design", [target("line.obj"), "--mattress", "830x740", "--out", "OUT"],
                          "line.obj: the target has no surface: 8 of 8 faces are degenerate"),
+    "design-cut": ("design", [target("cut.ply"), "--mattress", "830x740", "--out", "OUT"],
+                   "cut.ply: truncated PLY: last 'face' row has 3 values, expected 4"),
     "design-degenerate": ("design", [target("flat_faces.obj"), "--mattress", "830x740", "--out", "OUT"],
                           "flat_faces.obj: the target has no surface: 24 of 24 faces"),
     "design-cal-L-text": ("design", ["--preset", "vault1", "--out", "OUT", "--calibration",

@@ -55,11 +55,11 @@ def test_missing_and_unsupported(tmp_path):
         load_target(tmp_path / "a.dxf")
 
 
-@pytest.mark.parametrize("ext", ["ply", "off"])
-def test_garbage_is_unreadable(tmp_path, ext):
+@pytest.mark.parametrize("ext, message", [("ply", "not a PLY file"), ("off", "not an OFF file")])
+def test_garbage_is_unreadable(tmp_path, ext, message):
     path = tmp_path / f"bad.{ext}"
     path.write_bytes(b"garbage\x00\x01 not a mesh\n")
-    with pytest.raises(InputError, match="cannot read") as err:
+    with pytest.raises(InputError, match=message) as err:
         load_target(path)
     assert err.value.path == str(path)
 

@@ -1,0 +1,144 @@
+"""Whether a mesh file is whole: a body cut short (a copy or download that stopped) is refused.
+
+trimesh reads many truncated files without complaint and returns part of
+the mesh (a target designed on part of its surface, a scan with part of its
+points), or fails with a message that does not say what is wrong ("PLY is
+unexpected length!", "operands could not be broadcast"). These checks run
+before it, on the file's bytes, one per format:
+
+- PLY: the counts of its header against the body
+  (:func:`calib.scan_readers.ply_header.check_ply_complete`);
+- OFF: the vertex and face counts of its header against its rows, and the
+  values of its last row;
+- binary STL: the triangle count of its header against the file size; ASCII
+  STL: its closing ``endsolid``;
+- OBJ (no counts): its last record (a vertex needs 3 coordinates, a face 3
+  corners).
+
+A text body (ascii PLY, OFF, OBJ) must end with a line break: a file cut
+inside its last number looks complete otherwise ("f 12 345 6" of
+"f 12 345 6789"). Every exporter we know ends its last line; a hand-edited
+file that does not is refused with a message saying to add one.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from airmat.errors import InputError
+from calib.scan_readers.ply_header import check_ply_complete
+
+__all__ = ["check_complete"]
+
+#: how much of a file's end is read to find its last record (bytes)
+TAIL = 4096
+
+
+def check_complete(path) -> None:
+    """Raise :class:`airmat.errors.InputError` (naming ``path``) when a mesh file is cut short.
+
+    Parameters
+    ----------
+    path : str or Path
+        A PLY, OFF, STL or OBJ file (by its suffix); other suffixes are not checked.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        Saying what the header declares and what the file holds, or which record is incomplete.
+    """
+    path = Path(path)
+    if path.is_file() and path.stat().st_size == 0:
+        return  # an empty file: the reader says it holds no mesh
+    check = {".ply": _check_ply, ".off": _check_off, ".stl": _check_stl, ".obj": _check_obj}
+    fn = check.get(path.suffix.lower())
+    if fn is None:
+        return
+    try:
+        fn(path)
+    except OSError as err:
+        raise InputError(f"cannot read: {err.strerror or err}", path=path) from None
+
+
+def _tail(path: Path) -> bytes:
+    with open(path, "rb") as fh:
+        fh.seek(0, 2)
+        fh.seek(max(fh.tell() - TAIL, 0))
+        return fh.read()
+
+
+def _ends_inside_a_line(path: Path, kind: str) -> None:
+    tail = _tail(path).rstrip(b" \t")
+    if tail and not tail.endswith((b"\n", b"\r")):
+        raise InputError(f"truncated {kind}: the file ends inside a line (cut short? a complete file "
+                         "ends with a line break; if this one is complete, add one)", path=path)
+
+
+def _check_ply(path: Path) -> None:
+    check_ply_complete(path)
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if b"format ascii" in head[:head.find(b"end_header")]:
+        _ends_inside_a_line(path, "PLY")
+
+
+def _check_off(path: Path) -> None:
+    text = re.sub(rb"#[^\n]*", b"", path.read_bytes())
+    if b"BINARY" in text[:64].upper():
+        return  # binary OFF: left to the reader
+    head = text[:256].split(maxsplit=4)
+    if not head or not head[0].upper().endswith(b"OFF"):
+        raise InputError("not an OFF file (its first word is not 'OFF')", path=path)
+    if len(head) < 3 or not (head[1].isdigit() and head[2].isdigit()):
+        raise InputError("malformed OFF header: no 'vertices faces edges' counts after 'OFF'", path=path)
+    nv, nf = int(head[1]), int(head[2])
+    # rows that hold a value, the header's one or two included (counted in C, not per row in Python)
+    rows = len(re.findall(rb"(?m)^[ \t]*\S", text))
+    header_rows = 1 if re.match(rb"\s*\S+[ \t]+\d", text) else 2   # "OFF nv nf ne" on one line, or two
+    if rows - header_rows < nv + nf:
+        raise InputError(f"truncated OFF: the header declares {nv} vertices and {nf} faces "
+                         f"({nv + nf} rows), the file has {max(rows - header_rows, 0)}", path=path)
+    if rows - header_rows == nv + nf and nv + nf:
+        last = text.rstrip().rsplit(b"\n", 1)[-1].split()
+        need = 3 if nf == 0 else 1 + int(last[0]) if last[0].isdigit() else None
+        if need is None or len(last) < need:
+            kind = "vertex" if nf == 0 else "face"
+            raise InputError(f"truncated OFF: the last {kind} row has {len(last)} values, expected "
+                             f"{need if need is not None else 'a corner count first'}", path=path)
+    _ends_inside_a_line(path, "OFF")
+
+
+def _check_stl(path: Path) -> None:
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(512)
+    declared = int(np.frombuffer(head[80:84], "<u4")[0]) if len(head) >= 84 else None
+    if declared is not None and size == 84 + 50 * declared:
+        return  # a complete binary STL
+    if head.lstrip().startswith(b"solid") and b"facet" in head:
+        last = _tail(path).rstrip().rsplit(b"\n", 1)[-1].strip()
+        if not last.startswith(b"endsolid"):
+            raise InputError("truncated STL: the ASCII file does not end with 'endsolid'", path=path)
+        return
+    if declared is None:
+        raise InputError(f"truncated STL: {size} bytes, shorter than a binary STL's 84-byte header",
+                         path=path)
+    if size < 84 + 50 * declared:
+        raise InputError(f"truncated STL: the header declares {declared} triangles "
+                         f"({84 + 50 * declared} bytes), the file has {size}", path=path)
+
+
+#: least values of an OBJ record after its keyword
+_OBJ_VALUES = {b"v": 3, b"vn": 3, b"f": 3, b"vt": 1}
+
+
+def _check_obj(path: Path) -> None:
+    lines = _tail(path).splitlines()
+    last = next((ln.split() for ln in reversed(lines) if ln.strip()), None)
+    if last and last[0] in _OBJ_VALUES and len(last) - 1 < _OBJ_VALUES[last[0]]:
+        raise InputError(f"truncated OBJ: the last {last[0].decode()!r} record has {len(last) - 1} values, "
+                         f"expected {_OBJ_VALUES[last[0]]}", path=path)
+    _ends_inside_a_line(path, "OBJ")

@@ -1,0 +1,106 @@
+"""A mesh file cut short is refused before trimesh reads part of it (calib.scan_readers.mesh_complete)."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from airmat.errors import InputError
+from calib.scan_readers.mesh_complete import check_complete
+from design.target import load_target
+
+#: (suffix, trimesh export options)
+FORMATS = [("ply", {"encoding": "binary"}), ("ply", {"encoding": "ascii"}), ("off", {}),
+           ("stl", {}), ("stl", {"file_type": "stl_ascii"}), ("obj", {})]
+
+
+def _surface():
+    """A 0.8 × 0.6 m grid surface, gently curved, in mm: a small target."""
+    u, v = np.meshgrid(np.linspace(0, 800, 13), np.linspace(0, 600, 11), indexing="ij")
+    z = 100 * np.sin(np.pi * u / 800)
+    vertices = np.column_stack([u.ravel(), v.ravel(), z.ravel()])
+    idx = np.arange(13 * 11).reshape(13, 11)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    return trimesh.Trimesh(vertices, np.r_[np.c_[a, b, c], np.c_[a, c, d]], process=False)
+
+
+def _write(tmp_path, suffix, options, name="whole"):
+    opts = dict(options)
+    data = _surface().export(file_type=opts.pop("file_type", suffix), **opts)
+    path = tmp_path / f"{name}.{suffix}"
+    path.write_bytes(data if isinstance(data, bytes) else data.encode())
+    return path
+
+
+@pytest.mark.parametrize("suffix, options", FORMATS)
+def test_a_whole_file_passes_and_reads(tmp_path, suffix, options):
+    path = _write(tmp_path, suffix, options)
+    check_complete(path)
+    assert len(load_target(path).faces) == 240
+
+
+@pytest.mark.parametrize("suffix, options", FORMATS)
+@pytest.mark.parametrize("keep", [0.3, 0.7, 0.98, -2])
+def test_a_file_cut_short_is_refused_naming_the_file(tmp_path, suffix, options, keep):
+    whole = _write(tmp_path, suffix, options).read_bytes().rstrip(b"\n")
+    n = len(whole) + keep if keep < 0 else int(len(whole) * keep)   # -2: inside the last number
+    path = tmp_path / f"cut.{suffix}"
+    path.write_bytes(whole[:n])
+    with pytest.raises(InputError, match="truncated") as err:
+        check_complete(path)
+    assert err.value.path == str(path)
+    with pytest.raises(InputError, match="truncated"):
+        load_target(path)
+
+
+@pytest.mark.parametrize("suffix, options", [("ply", {"encoding": "ascii"}), ("off", {})])
+def test_a_text_file_cut_at_a_line_break_is_refused_by_its_counts(tmp_path, suffix, options):
+    whole = _write(tmp_path, suffix, options).read_bytes()
+    cut = whole[:whole.rindex(b"\n", 0, int(0.9 * len(whole))) + 1]   # whole rows, some faces missing
+    path = tmp_path / f"cut.{suffix}"
+    path.write_bytes(cut)
+    with pytest.raises(InputError, match=r"declares .*(rows|faces)"):
+        check_complete(path)
+
+
+def test_a_binary_ply_of_triangles_and_quads_is_not_taken_for_a_cut_one(tmp_path):
+    # the first face a quad, the others triangles: shorter than "every face as long as the first"
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]], float)
+    header = (b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\n"
+              b"property float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+              b"end_header\n")
+    body = (v.astype("<f4").tobytes() + bytes([4]) + np.array([0, 1, 2, 3], "<i4").tobytes()
+            + bytes([3]) + np.array([1, 4, 2], "<i4").tobytes())
+    path = tmp_path / "mixed.ply"
+    path.write_bytes(header + body)
+    check_complete(path)   # not refused: the reader decides
+    path.write_bytes(header + body[:-3])
+    with pytest.raises(InputError, match="unexpected length|truncated"):
+        load_target(path)   # cut, and the reader still refuses it
+
+
+def test_off_with_counts_on_its_first_line_and_comments(tmp_path):
+    path = tmp_path / "t.off"
+    path.write_text("OFF 3 1 0\n# a comment\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    check_complete(path)
+    path.write_text("OFF 3 1 0\n# a comment\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n")
+    with pytest.raises(InputError, match="last face row has 3 values, expected 4"):
+        check_complete(path)
+
+
+def test_an_obj_without_a_final_line_break_is_refused_with_what_to_do(tmp_path):
+    path = tmp_path / "t.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3")
+    with pytest.raises(InputError, match="ends inside a line.*add one"):
+        check_complete(path)
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    check_complete(path)
+
+
+def test_a_scan_cut_short_is_refused_by_the_scan_reader(tmp_path):
+    from calib.scan_io import read_scan
+
+    whole = _write(tmp_path, "obj", {}).read_bytes()
+    path = tmp_path / "scan.obj"
+    path.write_bytes(whole[:len(whole) // 2 + 3])
+    with pytest.raises(InputError, match="truncated OBJ"):
+        read_scan(path)
