@@ -25,7 +25,7 @@ import numpy as np
 from airmat.errors import InputError
 from airmat.geometry.topology import face_edges
 from airmat.units import SCAN_UNITS
-from calib.scan_readers.mesh_complete import check_complete
+from calib.scan_readers.cut_short import check_complete
 from calib.scan_readers.raw import library_message
 
 __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
@@ -201,7 +201,7 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     ------
     airmat.errors.InputError
         With ``path`` set: missing or unreadable file, a file cut short
-        (:mod:`calib.scan_readers.mesh_complete`), unknown format or
+        (:mod:`calib.scan_readers.cut_short`), unknown format or
         units, empty mesh, non-triangle faces, NaN/inf coordinates,
         non-manifold edges, a size that does not fit the mattress.
     """

@@ -32,7 +32,8 @@ def read(path: Path, *, scan_index: int | None = None) -> RawCloud:
     try:
         e57 = pye57.E57(str(path), mode="r")
     except Exception as err:  # libE57 raises its own exception types
-        raise InputError(f"cannot parse E57 file: {library_message(err)}", path=path) from None
+        raise InputError(f"cannot parse E57 file (truncated or corrupt?): {library_message(err)}",
+                         path=path) from None
     try:
         n = e57.scan_count
         if n == 0:

@@ -37,8 +37,8 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     except OSError as err:
         raise InputError(f"cannot read: {err.strerror or err}", path=path) from None
     except Exception as err:  # laspy/lazrs raise several types for a bad file
-        raise InputError(f"cannot parse {path.suffix[1:].upper()} file: {library_message(err)}",
-                         path=path) from None
+        raise InputError(f"cannot parse {path.suffix[1:].upper()} file (truncated or corrupt?): "
+                         f"{library_message(err)}", path=path) from None
     records, header = las.points.array, las.header
     xyz = np.empty((len(records), 3))
     for j, name in enumerate("XYZ"):

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.mesh_complete import check_complete
 from calib.scan_readers.ply_header import ply_vertex_float32
 from calib.scan_readers.ply_points import read_binary_points
 from calib.scan_readers.raw import RawCloud, library_message
@@ -24,7 +23,6 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     """Vertices (and faces) of a trimesh-readable file; a scene's parts are placed by their node poses."""
     suffix = path.suffix.lower()
     float32 = suffix in (".stl", ".glb", ".gltf")  # these formats store 32-bit floats only
-    check_complete(path)   # PLY, OFF, STL, OBJ cut short
     if suffix == ".ply":
         cloud = read_binary_points(path)  # a scanner's binary point cloud: numpy, no trimesh
         if cloud is not None:

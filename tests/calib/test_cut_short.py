@@ -1,11 +1,11 @@
-"""A mesh file cut short is refused before trimesh reads part of it (calib.scan_readers.mesh_complete)."""
+"""A mesh or scan file cut short is refused before a library reads part of it (calib.scan_readers.cut_short)."""
 
 import numpy as np
 import pytest
 import trimesh
 
 from airmat.errors import InputError
-from calib.scan_readers.mesh_complete import check_complete
+from calib.scan_readers.cut_short import check_complete
 from design.target import load_target
 
 #: (suffix, trimesh export options)
@@ -104,3 +104,54 @@ def test_a_scan_cut_short_is_refused_by_the_scan_reader(tmp_path):
     path.write_bytes(whole[:len(whole) // 2 + 3])
     with pytest.raises(InputError, match="truncated OBJ"):
         read_scan(path)
+
+
+def _cloud():
+    """2000 points on a 300 mm cylinder, mm."""
+    rng = np.random.default_rng(0)
+    t, z = rng.uniform(0, 1.5, 2000), rng.uniform(0, 700, 2000)
+    return np.c_[300 * np.sin(t), z, 300 * np.cos(t)]
+
+
+def _write_cloud(tmp_path, suffix):
+    p, path = _cloud(), tmp_path / f"whole.{suffix}"
+    if suffix == "xyz":
+        np.savetxt(path, p, fmt="%.3f")
+    elif suffix == "pcd":
+        head = ("# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                f"WIDTH {len(p)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(p)}\nDATA ascii\n")
+        path.write_text(head + "".join(f"{x:.3f} {y:.3f} {z:.3f}\n" for x, y, z in p))
+    else:
+        import laspy
+        header = laspy.LasHeader(point_format=6, version="1.4")
+        header.scales, header.offsets = [1e-4] * 3, [0, 0, 0]
+        las = laspy.LasData(header)
+        las.x, las.y, las.z = (p / 1e3).T
+        las.write(str(path))
+    return path
+
+
+@pytest.mark.parametrize("suffix", ["xyz", "pcd", "las"])
+@pytest.mark.parametrize("keep", [0.3, 0.98, -2])
+def test_a_point_cloud_cut_short_is_refused(tmp_path, suffix, keep):
+    from calib.scan_io import read_scan
+
+    whole = _write_cloud(tmp_path, suffix)
+    assert len(read_scan(whole).points) == 2000
+    data = whole.read_bytes().rstrip(b"\n")
+    path = tmp_path / f"cut.{suffix}"
+    n = len(data) + keep if keep < 0 else int(len(data) * keep)
+    n -= data[n - 1:n] == b"\n"   # inside a line: a columns file cut at a line's end looks whole (documented)
+    path.write_bytes(data[:n])
+    with pytest.raises(InputError, match=f"truncated {suffix.upper()}") as err:
+        read_scan(path)
+    assert err.value.path == str(path)
+
+
+def test_an_ascii_pcd_cut_at_a_line_break_is_refused_by_its_count(tmp_path):
+    # open3d, the fallback reader, pads such a file with zeros up to its POINTS
+    data = _write_cloud(tmp_path, "pcd").read_bytes()
+    path = tmp_path / "cut.pcd"
+    path.write_bytes(data[:data.rindex(b"\n", 0, len(data) // 2) + 1])
+    with pytest.raises(InputError, match="declares 2000 points, the file has"):
+        check_complete(path)

@@ -1,24 +1,29 @@
-"""Whether a mesh file is whole: a body cut short (a copy or download that stopped) is refused.
+"""Files cut short: a mesh or scan whose copy or download stopped is refused before it is read.
 
-trimesh reads many truncated files without complaint and returns part of
-the mesh (a target designed on part of its surface, a scan with part of its
-points), or fails with a message that does not say what is wrong ("PLY is
-unexpected length!", "operands could not be broadcast"). These checks run
-before it, on the file's bytes, one per format:
+trimesh, open3d and the column readers read many truncated files without
+complaint and return part of the mesh or cloud (a target designed on part of
+its surface; an ascii PCD that open3d pads with zeros up to its declared
+count), or fail with a message that does not say what is wrong ("PLY is
+unexpected length!", "buffer size must be a multiple of element size").
+These checks run before them, on the file's bytes, one per format:
 
 - PLY: the counts of its header against the body
   (:func:`calib.scan_readers.ply_header.check_ply_complete`);
 - OFF: the vertex and face counts of its header against its rows, and the
-  values of its last row;
+  values of its last row; ascii PCD: its POINTS against its rows;
 - binary STL: the triangle count of its header against the file size; ASCII
-  STL: its closing ``endsolid``;
-- OBJ (no counts): its last record (a vertex needs 3 coordinates, a face 3
-  corners).
+  STL: its closing ``endsolid``; LAS (uncompressed): the point count and
+  record size of its header against the file size (laspy reads the header);
+- OBJ (no counts): its last record; PTS/XYZ/TXT columns: nothing but the
+  line break below.
 
-A text body (ascii PLY, OFF, OBJ) must end with a line break: a file cut
-inside its last number looks complete otherwise ("f 12 345 6" of
+A text body (ascii PLY and PCD, OFF, OBJ, columns) must end with a line break:
+a file cut inside its last number looks complete otherwise ("f 12 345 6" of
 "f 12 345 6789"). Every exporter we know ends its last line; a hand-edited
-file that does not is refused with a message saying to add one.
+file that does not is refused with a message saying to add one. A file
+without counts (OBJ, columns) cut exactly at the end of a line cannot be told
+from a whole one. Binary PCD, compressed formats (LAZ, E57, GLB) and binary
+OFF are left to their readers, which check their own sizes.
 """
 
 from __future__ import annotations
@@ -43,7 +48,8 @@ def check_complete(path) -> None:
     Parameters
     ----------
     path : str or Path
-        A PLY, OFF, STL or OBJ file (by its suffix); other suffixes are not checked.
+        A mesh or scan file; the check is chosen by its suffix (PLY, OFF, STL, OBJ, PCD, LAS,
+        PTS/XYZ/TXT; other suffixes are not checked).
 
     Raises
     ------
@@ -53,7 +59,9 @@ def check_complete(path) -> None:
     path = Path(path)
     if path.is_file() and path.stat().st_size == 0:
         return  # an empty file: the reader says it holds no mesh
-    check = {".ply": _check_ply, ".off": _check_off, ".stl": _check_stl, ".obj": _check_obj}
+    check = {".ply": _check_ply, ".off": _check_off, ".stl": _check_stl, ".obj": _check_obj,
+             ".pcd": _check_pcd, ".las": _check_las, ".pts": _check_columns, ".xyz": _check_columns,
+             ".txt": _check_columns}
     fn = check.get(path.suffix.lower())
     if fn is None:
         return
@@ -142,3 +150,45 @@ def _check_obj(path: Path) -> None:
         raise InputError(f"truncated OBJ: the last {last[0].decode()!r} record has {len(last) - 1} values, "
                          f"expected {_OBJ_VALUES[last[0]]}", path=path)
     _ends_inside_a_line(path, "OBJ")
+
+
+def _check_columns(path: Path) -> None:
+    _ends_inside_a_line(path, path.suffix[1:].upper())
+
+
+def _check_pcd(path: Path) -> None:
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 14)
+    data = re.search(rb"(?m)^DATA[ \t]+(\S+)[^\n]*\n", head)
+    points = re.search(rb"(?m)^POINTS[ \t]+(\d+)", head)
+    if data is None or data.group(1) != b"ascii" or points is None:
+        return  # binary bodies: the reader checks their size
+    declared = int(points.group(1))
+    with open(path, "rb") as fh:
+        fh.seek(data.end())
+        body = fh.read()
+    rows = body.count(b"\n") + (not body.endswith(b"\n"))   # at least the rows it holds (blank lines count)
+    if rows < declared:
+        raise InputError(f"truncated PCD: the header declares {declared} points, the file has {rows} rows",
+                         path=path)
+    _ends_inside_a_line(path, "PCD")
+
+
+def _check_las(path: Path) -> None:
+    import laspy
+
+    try:
+        with laspy.open(str(path)) as reader:
+            header = reader.header
+            if header.are_points_compressed:
+                return   # a LAZ body under a .las name: lazrs checks its chunks
+            need = header.offset_to_point_data + header.point_count * header.point_format.size
+    except OSError:
+        raise
+    except Exception:   # a header laspy cannot read: the reader reports it
+        return
+    size = path.stat().st_size
+    if size < need:
+        raise InputError(f"truncated LAS: the header declares {header.point_count} points of "
+                         f"{header.point_format.size} bytes after {header.offset_to_point_data} bytes of header "
+                         f"({need} bytes), the file has {size}", path=path)
