@@ -26,6 +26,7 @@ from airmat.errors import InputError
 from airmat.geometry.topology import face_edges
 from airmat.units import SCAN_UNITS
 from calib.scan_readers.cut_short import check_complete
+from calib.scan_readers.obj_indices import check_obj_indices
 from calib.scan_readers.raw import library_message
 
 __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
@@ -217,6 +218,8 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     if not path.is_file():
         raise InputError("target file not found", path=path)
     check_complete(path)   # a file cut short would otherwise give part of the surface, or a cryptic error
+    if ext == "obj":
+        check_obj_indices(path)
     try:
         mesh = trimesh.load(path, file_type=ext, process=False, force="mesh")
         declared = _declared_polygons(path, mesh)

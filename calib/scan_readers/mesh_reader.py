@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
+from calib.scan_readers.obj_indices import check_obj_indices
 from calib.scan_readers.ply_header import ply_vertex_float32
 from calib.scan_readers.ply_points import read_binary_points
 from calib.scan_readers.raw import RawCloud, library_message
@@ -23,6 +24,8 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     """Vertices (and faces) of a trimesh-readable file; a scene's parts are placed by their node poses."""
     suffix = path.suffix.lower()
     float32 = suffix in (".stl", ".glb", ".gltf")  # these formats store 32-bit floats only
+    if suffix == ".obj":
+        check_obj_indices(path)
     if suffix == ".ply":
         cloud = read_binary_points(path)  # a scanner's binary point cloud: numpy, no trimesh
         if cloud is not None:

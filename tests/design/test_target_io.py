@@ -146,3 +146,28 @@ def test_target_validates_arrays():
         Target(v, f + len(v))
     with pytest.raises(InputError, match="empty mesh"):
         Target(np.zeros((0, 3)), np.zeros((0, 3), int))
+
+
+def _two_triangles_obj(relative: bool, interleaved: bool) -> str:
+    """A unit square as two triangles; corners by absolute or relative index, the fourth vertex
+    before the faces or between them."""
+    v = ["v 0 0 0", "v 1000 0 0", "v 0 1000 0", "v 1000 1000 0"]
+    if relative and interleaved:
+        return "\n".join(v[:3] + ["f -3 -2 -1"] + v[3:] + ["f -3 -1 -2"]) + "\n"
+    if relative:
+        return "\n".join(v + ["f -4 -3 -2", "f -3 -1 -2"]) + "\n"
+    return "\n".join(v[:3] + ["f 1 2 3"] + v[3:] + ["f 2 4 3"]) + "\n"
+
+
+def test_obj_relative_indices_after_more_vertices_are_refused_others_read_right(tmp_path):
+    square = np.array([[0, 1, 2], [1, 3, 2]])
+    for relative, interleaved in [(True, False), (False, True)]:
+        path = tmp_path / f"r{relative:d}{interleaved:d}.obj"
+        path.write_text(_two_triangles_obj(relative, interleaved))
+        t = load_target(path)
+        assert np.array_equal(t.faces, square) and len(t.vertices) == 4
+    path = tmp_path / "interleaved_relative.obj"
+    path.write_text(_two_triangles_obj(True, True))   # trimesh: 3 vertices, the first face twice
+    with pytest.raises(InputError, match="relative .* absolute indices") as err:
+        load_target(path)
+    assert err.value.path == str(path)
