@@ -31,7 +31,7 @@ import scipy.sparse as sp
 from airmat.geometry.topology import boundary_vertices, cotangent_umbrella
 
 __all__ = ["Springs", "Model", "spring_profile", "spring_terms", "volume_terms", "smoothing_matrix",
-           "energy", "energy_and_gradient", "hessian_blocks", "pressure_forces"]
+           "energy", "energy_and_gradient", "energy_gradient_volume", "hessian_blocks", "pressure_forces"]
 
 
 @dataclass(frozen=True)
@@ -181,10 +181,11 @@ def spring_terms(x: np.ndarray, s: Springs, *, gradient: bool = True, hessian: b
 
 def _skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrices [v]x, shape (m, 3, 3), of vectors (m, 3)."""
-    z = np.zeros(len(v))
-    return np.stack([np.stack([z, -v[:, 2], v[:, 1]], 1),
-                     np.stack([v[:, 2], z, -v[:, 0]], 1),
-                     np.stack([-v[:, 1], v[:, 0], z], 1)], 1)
+    out = np.zeros((len(v), 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out
 
 
 #: ordered vertex pairs (a, b) of a triangle with the third vertex c and the sign
@@ -218,8 +219,8 @@ def volume_terms(x: np.ndarray, faces: np.ndarray, *, gradient: bool = True, hes
                                             minlength=len(x)) for k in range(3)])
     blocks = None
     if hessian:
-        corners = (a, b, c)
-        blocks = np.stack([sign * _skew(corners[k]) / 6.0 for _, _, k, sign in VOLUME_PAIRS], axis=1)
+        skew6 = [_skew(corner) / 6.0 for corner in (a, b, c)]   # ±[x]x/6 = ±([x]x/6) exactly
+        blocks = np.stack([skew6[k] if sign > 0 else -skew6[k] for _, _, k, sign in VOLUME_PAIRS], axis=1)
     return vol, grad, blocks
 
 
@@ -269,13 +270,22 @@ def energy(model: Model, x: np.ndarray) -> float:
 
 def energy_and_gradient(model: Model, x: np.ndarray) -> tuple:
     """U_B (J) and its gradient (n, 3) (N)."""
+    return energy_gradient_volume(model, x)[:2]
+
+
+def energy_gradient_volume(model: Model, x: np.ndarray) -> tuple:
+    """U_B (J), its gradient (n, 3) (N) and the volume's gradient dVol/dx (n, 3) (m²).
+
+    The last gives the pressure forces ``p dVol/dx`` (:func:`pressure_forces`, the same bits)
+    without computing the volume terms again.
+    """
     e, g = 0.0, model.smoothing @ x
     e += 0.5 * float(np.einsum("ij,ij->", x, g))
     for s in model.springs:
         es, gs, _ = spring_terms(x, s)
         e, g = e + es, g + gs
     vol, gv, _ = volume_terms(x, model.faces)
-    return e - model.pressure * vol, g - model.pressure * gv
+    return e - model.pressure * vol, g - model.pressure * gv, gv
 
 
 def pressure_forces(model: Model, x: np.ndarray) -> np.ndarray:

@@ -32,8 +32,7 @@ from airmat.errors import ConvergenceError
 from airmat.progress import progress
 from inflation.assembly import build_assembler
 from inflation.cholesky import ShiftedCholesky
-from inflation.energy import (Model, block_pattern, energy_and_gradient, hessian_blocks,
-                                     pressure_forces, smoothing_blocks)
+from inflation.energy import Model, block_pattern, energy_gradient_volume, hessian_blocks, smoothing_blocks
 
 __all__ = ["SolveResult", "solve", "rigid_pins", "NewtonSystem"]
 
@@ -109,8 +108,9 @@ def rigid_pins(uv: np.ndarray, top: np.ndarray) -> np.ndarray:
     return np.array([a, a + 1, a + 2, b, b + 2, c + 2])
 
 
-def _residual(model: Model, x: np.ndarray, g_free: np.ndarray) -> float:
-    f_ref = float(np.max(np.linalg.norm(pressure_forces(model, x), axis=1)))
+def _residual(model: Model, grad_volume: np.ndarray, g_free: np.ndarray) -> float:
+    """max |grad| over the largest pressure force ``p |dVol/dx_i|`` (``grad_volume``: dVol/dx, (n, 3))."""
+    f_ref = float(np.max(np.linalg.norm(model.pressure * grad_volume, axis=1)))
     return float(np.max(np.abs(g_free))) / max(f_ref, np.finfo(float).tiny)
 
 
@@ -175,7 +175,7 @@ class _TrustRegion:
         self.model, self.free, self.max_move, self.mu_min, self.mu = model, free, max_move, mu_min, 0.0
 
     def step(self, system: NewtonSystem, h, x, e, gf):
-        """Shrink (raise mu) until a step lowers U_B; returns (x, U, grad) or None."""
+        """Shrink (raise mu) until a step lowers U_B; returns (x, U, grad, dVol/dx) or None."""
         for _ in range(30):
             dx, self.mu = system.step(h, gf, self.mu)
             longest = float(np.max(np.linalg.norm(_full(dx, self.free, x.shape), axis=1)))
@@ -184,7 +184,7 @@ class _TrustRegion:
             predicted = -(gf @ dx + 0.5 * dx @ (h @ dx))
             xn = x.copy()
             xn.reshape(-1)[self.free] += dx
-            en, gn = energy_and_gradient(self.model, xn)
+            en, gn, gvn = energy_gradient_volume(self.model, xn)
             actual = e - en
             noise = 1e-12 * (abs(e) + abs(en))   # U ~ p Vol: its round-off can exceed tiny decreases
             rho = actual / predicted if predicted > noise else (1.0 if abs(actual) <= noise else -1.0)
@@ -193,7 +193,7 @@ class _TrustRegion:
                     self.mu = max(4.0 * self.mu, 1e2 * self.mu_min)
                 elif rho > 0.75 and cap == 1.0:
                     self.mu = self.mu / MU_DOWN if self.mu > 1e2 * self.mu_min else 0.0
-                return xn, en, gn
+                return xn, en, gn, gvn
             self.mu = max(4.0 * self.mu, 1e2 * self.mu_min)
         return None
 
@@ -252,12 +252,13 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
     system = linear_system if linear_system is not None else NewtonSystem(groups=asm.free // 3)
     if system.mu_min is None:
         system.mu_min = tr.mu_min
-    e, g = energy_and_gradient(model, x)
+    e, g, gv = energy_gradient_volume(model, x)
+    h_at_x = True   # h is the Hessian at x (the first iteration uses the one assembled above)
     with progress(total=max_iter, desc=desc, unit="it") as bar:
         while True:
             _check_sane(model, x, e, it)
             gf = g.reshape(-1)[asm.free]
-            res = _residual(model, x, gf)
+            res = _residual(model, gv, gf)
             history.append(res)
             bar.set_postfix_str(f"residual {res:.2e}")
             if res < tol:
@@ -266,12 +267,14 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
             if it >= max_iter:
                 message = f"not converged after {it} iterations: residual {res:.3g} >= {tol:g}"
                 break
-            h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
+            if not h_at_x:
+                h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
             step = tr.step(system, h, x, e, gf)
             if step is None:
                 message = f"stalled at iteration {it}: no energy decrease even with a large shift"
                 break
-            x, e, g = step
+            x, e, g, gv = step
+            h_at_x = False
             log.debug("iteration %d: U=%.12g J, residual %.3e, shift %.1e", it, e, res, tr.mu)
             it += 1
             bar.update(1)
