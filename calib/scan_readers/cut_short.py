@@ -10,7 +10,7 @@ These checks run before them, on the file's bytes, one per format:
 - PLY: the counts of its header against the body
   (:func:`calib.scan_readers.ply_header.check_ply_complete`);
 - OFF: the vertex and face counts of its header against its rows, and the
-  values of its last row; ascii PCD: its POINTS against its rows;
+  values of its last row (ascii PCD: the reader counts its rows against POINTS);
 - binary STL: the triangle count of its header against the file size; ASCII
   STL: its closing ``endsolid``; LAS (uncompressed): the point count and
   record size of its header against the file size (laspy reads the header);
@@ -43,12 +43,12 @@ TAIL = 4096
 
 
 def check_complete(path) -> None:
-    """Raise :class:`airmat.errors.InputError` (naming ``path``) when a mesh file is cut short.
+    """Raise :class:`airmat.errors.InputError` (naming ``path``) when a mesh or scan file is cut short.
 
     Parameters
     ----------
     path : str or Path
-        A mesh or scan file; the check is chosen by its suffix (PLY, OFF, STL, OBJ, PCD, LAS,
+        A mesh or scan file; the check is chosen by its suffix (PLY, OFF, STL, OBJ, ascii PCD, LAS,
         PTS/XYZ/TXT; other suffixes are not checked).
 
     Raises
@@ -157,21 +157,12 @@ def _check_columns(path: Path) -> None:
 
 
 def _check_pcd(path: Path) -> None:
+    """An ascii body must end with a line break; its rows against POINTS are counted by the reader
+    (:mod:`calib.scan_readers.pcd_reader`: polars' rows, or the line breaks before open3d reads it)."""
     with open(path, "rb") as fh:
         head = fh.read(1 << 14)
-    data = re.search(rb"(?m)^DATA[ \t]+(\S+)[^\n]*\n", head)
-    points = re.search(rb"(?m)^POINTS[ \t]+(\d+)", head)
-    if data is None or data.group(1) != b"ascii" or points is None:
-        return  # binary bodies: the reader checks their size
-    declared = int(points.group(1))
-    with open(path, "rb") as fh:
-        fh.seek(data.end())
-        body = fh.read()
-    rows = body.count(b"\n") + (not body.endswith(b"\n"))   # at least the rows it holds (blank lines count)
-    if rows < declared:
-        raise InputError(f"truncated PCD: the header declares {declared} points, the file has {rows} rows",
-                         path=path)
-    _ends_inside_a_line(path, "PCD")
+    if re.search(rb"(?m)^DATA[ \t]+ascii", head):
+        _ends_inside_a_line(path, "PCD")
 
 
 def _check_las(path: Path) -> None:

@@ -32,12 +32,28 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
         if data else None
     xyz = reader(path, header) if reader is not None else None
     if xyz is None:
+        if data == ["ascii"]:
+            _check_ascii_rows(path, header)   # open3d pads a short ascii body with zeros up to POINTS
         xyz = _read_open3d(path)
     declared = int(header.get("POINTS", ["0"])[0]) if header.get("POINTS", [""])[0].isdigit() else None
     if len(xyz) == 0 or (declared is not None and len(xyz) != declared):
         raise InputError(f"cannot parse PCD file (truncated or corrupt?): read {len(xyz)} of "
                          f"{declared} points", path=path)
     return RawCloud(vertices=xyz, float32=float32)
+
+
+def _check_ascii_rows(path: Path, header: dict) -> None:
+    """Refuse an ascii body with fewer rows than its POINTS (counted in C: its line breaks)."""
+    points = header.get("POINTS", [""])[0]
+    if not points.isdigit():
+        return
+    with open(path, "rb") as fh:
+        fh.seek(header["_body"])
+        body = fh.read()
+    rows = body.count(b"\n") + (not body.endswith(b"\n"))   # at least the rows it holds
+    if rows < int(points):
+        raise InputError(f"truncated PCD: the header declares {points} points, the file has {rows} rows",
+                         path=path)
 
 
 def _read_open3d(path: Path) -> np.ndarray:
