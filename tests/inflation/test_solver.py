@@ -6,8 +6,8 @@ import trimesh
 
 from airmat.errors import ConvergenceError, InputError
 from inflation.assembly import build_assembler
-from inflation.energy import (block_pattern, energy, energy_and_gradient, hessian_blocks,
-                                     pressure_forces, smoothing_blocks, spring_profile)
+from inflation.energy import (block_pattern, energy, energy_and_gradient, energy_gradient_volume, hessian_blocks,
+                              pressure_forces, smoothing_blocks, spring_profile)
 from inflation.mesh import build_mattress_mesh, locate
 from inflation.model import Parameters, build_model
 from inflation.simulate import inflate
@@ -76,6 +76,15 @@ def test_gradient_and_exact_hessian_match_finite_differences(mesh):
     g_fd = (energy_and_gradient(model, x + d)[1] - energy_and_gradient(model, x - d)[1]).ravel() / 2
     assert np.linalg.norm(hess @ d.ravel() - g_fd) < 1e-6 * np.linalg.norm(g_fd)
     assert abs(hess - hess.T).max() < 1e-9 * abs(hess).max()
+
+
+def test_the_solver_s_volume_gradient_gives_the_pressure_forces_bit_for_bit(mesh):
+    # the residual's reference force reuses the energy's dVol/dx instead of computing it again
+    model, x, _ = _stretched_model(mesh)
+    e, g, gv = energy_gradient_volume(model, x)
+    e2, g2 = energy_and_gradient(model, x)
+    assert e == e2 and np.array_equal(g, g2)
+    assert np.array_equal(model.pressure * gv, pressure_forces(model, x))
 
 
 def test_absurd_pressure_is_detected_as_divergence(mesh):
