@@ -15,6 +15,7 @@ import trimesh
 from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.units import M_TO_MM, MM
+from calib.scan_readers.cut_short import check_complete
 
 __all__ = ["write_approx_surface", "read_approx_surface"]
 
@@ -63,11 +64,13 @@ def read_approx_surface(path):
     Raises
     ------
     airmat.errors.InputError
-        When the file is missing, unreadable or lacks the ``u_mm``/``v_mm`` properties.
+        When the file is missing, unreadable, cut short (:mod:`calib.scan_readers.cut_short`) or
+        lacks the ``u_mm``/``v_mm`` properties.
     """
     path = Path(path)
     if not path.is_file():
         raise InputError("file not found (expected the approx_surface.ply of a design folder)", path=path)
+    check_complete(path)   # a file cut short: say so, not "not an airmat approx_surface.ply"
     try:
         mesh = trimesh.load(path, file_type="ply", process=False, force="mesh")
         raw = mesh.metadata["_ply_raw"]["vertex"]["data"]

@@ -160,6 +160,9 @@ CASES = {
                                          "--out", "OUT"], "polyline_mm has a non-finite coordinate"),
     "inflate-outside": ("inflate", [dash0("a_mm", [5000.0, 10.0]), "--out", "OUT"],
                         "design.json: string k1-"),
+    "inflate-surface-cut": ("inflate", [bad_design(lambda f: (f / "approx_surface.ply").write_bytes(
+        (f / "approx_surface.ply").read_bytes()[:-100])), "--out", "OUT"],
+        "approx_surface.ply: truncated PLY: the header declares"),
     "inflate-samples": ("inflate", [bad_design(lambda f: (f / "calibration_samples.npz").write_bytes(b"PK\x03")),
                                     "--out", "OUT"], "calibration_samples.npz: not readable"),
     "validate-seed": ("validate", ["--out", "OUT", "--seed", "-1"], "--seed: must be in"),
