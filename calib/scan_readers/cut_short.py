@@ -86,10 +86,7 @@ def _ends_inside_a_line(path: Path, kind: str) -> None:
 
 
 def _check_ply(path: Path) -> None:
-    check_ply_complete(path)
-    with open(path, "rb") as fh:
-        head = fh.read(1 << 16)
-    if b"format ascii" in head[:head.find(b"end_header")]:
+    if check_ply_complete(path):   # ascii
         _ends_inside_a_line(path, "PLY")
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
+from calib.scan_readers.ply_points import PLY_TYPES
 
 __all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32"]
 
@@ -26,8 +27,8 @@ def ply_vertex_float32(path: Path) -> bool:
     return False
 
 
-def check_ply_complete(path: Path) -> None:
-    """Raise InputError when a PLY header is missing or the body is cut short.
+def check_ply_complete(path: Path) -> bool:
+    """Raise InputError when a PLY header is missing or the body is cut short; whether it is ascii.
 
     trimesh silently accepts an ascii body cut inside its last line or a face
     element cut short, and names a binary truncation only as "unexpected
@@ -52,24 +53,39 @@ def check_ply_complete(path: Path) -> None:
         if not any(line.split()[:2] == ["format", "ascii"] for line in header):
             little = any(line.split()[:2] == ["format", "binary_little_endian"] for line in header)
             _check_binary_size(elements, fh, body_start, little, path)
-            return
+            return False
         fh.seek(body_start)
-        lines = fh.read().decode("ascii", errors="replace").split("\n")
-    lines = [ln for ln in lines if ln.strip()]
+        body = fh.read()
+    starts, ends = _rows(body)
     start = 0
     for name, count, props in elements:
         if count == 0:
             continue
         last = start + count - 1
-        if last >= len(lines):
+        if last >= len(starts):
             raise InputError(f"truncated PLY: element {name!r} declares {count} rows, "
-                             f"the file has {max(len(lines) - start, 0)}", path=path)
-        tokens = lines[last].split()
+                             f"the file has {max(len(starts) - start, 0)}", path=path)
+        tokens = body[starts[last]:ends[last]].decode("ascii", errors="replace").split()
         expected = _row_values(props, tokens)
         if expected != len(tokens):
             raise InputError(f"truncated PLY: last {name!r} row has {len(tokens)} values, expected "
                              f"{expected if expected is not None else 'a list count first'}", path=path)
         start += count
+    return True
+
+
+def _rows(body: bytes):
+    """Start and end offsets (k,) of the lines of ``body`` that hold a value (blank lines skipped),
+    found with numpy, not line by line."""
+    text = np.frombuffer(body, np.uint8)
+    ends = np.flatnonzero(text == 10)
+    if len(text) and text[-1] != 10:
+        ends = np.r_[ends, len(text)]
+    starts = np.r_[0, ends[:-1] + 1][:len(ends)]
+    filled = ends > starts
+    if filled.any():   # a line holds a value when it has a byte above 32 (not blank, tab or CR)
+        filled[filled] = np.logical_or.reduceat(text > 32, starts[filled])
+    return starts[filled], ends[filled]
 
 
 def _row_values(props, tokens) -> int | None:
@@ -88,8 +104,7 @@ def _row_values(props, tokens) -> int | None:
 
 
 #: bytes of a PLY scalar type
-_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
-          "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+_SIZES = {name: np.dtype(code).itemsize for name, code in PLY_TYPES.items()}
 
 
 def _check_binary_size(elements, fh, body_start: int, little: bool, path) -> None:

@@ -16,10 +16,10 @@ import numpy as np
 from airmat.errors import InputError
 from calib.scan_readers.raw import RawCloud
 
-__all__ = ["read_binary_points"]
+__all__ = ["read_binary_points", "PLY_TYPES"]
 
 #: PLY scalar type -> numpy type character
-_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
           "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
           "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
 
@@ -82,9 +82,9 @@ def _vertex_layout(header: list[str]):
     if any(count for _, count, _ in elements[1:]):
         return None  # faces or other data: a mesh
     _, count, props = elements[0]
-    if any(len(p) != 2 or p[0] not in _TYPES for p in props):
+    if any(len(p) != 2 or p[0] not in PLY_TYPES for p in props):
         return None  # list properties
     names = [p[1] for p in props]
     if not {"x", "y", "z"} <= set(names) or len(set(names)) != len(names):
         return None
-    return np.dtype([(name, order + _TYPES[t]) for t, name in props]), count
+    return np.dtype([(name, order + PLY_TYPES[t]) for t, name in props]), count
