@@ -25,7 +25,9 @@ Housekeeping and concurrency:
   computations of concurrent runs still overlap). Two runs on one output
   therefore end with one complete result, the one that published last.
 * SIGINT and SIGTERM are deferred across the swap itself, so Ctrl-C cannot
-  land between its steps; the interrupt is raised right after.
+  land between its steps, and across the creation of the staging folder, so
+  it cannot land before the folder's removal is registered; the interrupt is
+  raised right after.
 
 Where no exchange is available (another OS, a file system without it), the
 fallback renames the old folder aside and the new one in, under the same
@@ -395,16 +397,18 @@ def staged_dir(out: str | os.PathLike) -> Iterator[Path]:
     with contextlib.ExitStack() as stack:
         with _locked(parent):
             sweep_stale(out)
-            tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(out), dir=parent))
-            # held until the run ends: tells other runs' sweeps that this folder is alive
-            stack.enter_context(_locked(tmp))
-            _HELD.add(tmp)
-            stack.callback(_HELD.discard, tmp)
-        try:
-            yield tmp
-            _publish(tmp, out, parent)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)  # the failed run's files, or the old result
+            # a Ctrl-C between creating the folder and registering its removal would leave it
+            # behind: the two happen with SIGINT/SIGTERM deferred, the interrupt comes right after
+            with _signals_deferred():
+                tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(out), dir=parent))
+                # held until the run ends: tells other runs' sweeps that this folder is alive
+                stack.enter_context(_locked(tmp))
+                # removed while still locked: the failed run's files, or the old result
+                stack.callback(shutil.rmtree, tmp, ignore_errors=True)
+                _HELD.add(tmp)
+                stack.callback(_HELD.discard, tmp)
+        yield tmp
+        _publish(tmp, out, parent)
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:

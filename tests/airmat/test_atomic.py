@@ -197,6 +197,29 @@ def test_ctrl_c_inside_the_swap_leaves_old_or_new(tmp_path, monkeypatch, exchang
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def test_ctrl_c_right_after_the_staging_folder_is_made_leaves_nothing(tmp_path, monkeypatch):
+    """SIGINT the instant ``mkdtemp`` returns, before the folder's removal was
+    registered: without deferral the folder stayed behind (CI saw it once when
+    the kill test interrupted a run as soon as its staging folder appeared)."""
+    real_mkdtemp = atomic.tempfile.mkdtemp
+
+    def mkdtemp_then_sigint(*args, **kwargs):
+        path = real_mkdtemp(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)
+        return path
+    monkeypatch.setattr(atomic.tempfile, "mkdtemp", mkdtemp_then_sigint)
+    out = tmp_path / "out"
+    _old(out)
+    body = []
+    with pytest.raises(KeyboardInterrupt):
+        with staged_dir(out):
+            body.append("ran")
+    assert body == []  # the interrupt came before the run's body
+    assert _tree(out) == OLD
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert not atomic._HELD
+
+
 # ---------------------------------------------------------------- stale staging folders
 
 _HOLD = """
