@@ -4,7 +4,9 @@ A target is a triangle mesh in metres. Files are in millimetres unless told
 otherwise. Every problem a user can cause raises
 :class:`airmat.errors.InputError` naming the file: missing or unreadable
 file, empty mesh, non-triangle faces, non-manifold edges, NaN/inf
-coordinates, and a size that does not fit the mattress (a units slip).
+coordinates, several separate sheets or a closed solid
+(:mod:`design.target_pieces`), and a size that does not fit the mattress
+(a units slip).
 
 Non-triangle faces are refused, not triangulated: a quad can be split
 along either diagonal and the two choices are different surfaces, so the
@@ -23,11 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.geometry.topology import face_edges
+from airmat.geometry.topology import edge_counts
 from airmat.units import SCAN_UNITS
 from calib.scan_readers.cut_short import check_complete
 from calib.scan_readers.obj_indices import check_obj_indices
 from calib.scan_readers.raw import library_message
+from design.target_pieces import check_one_sheet
 
 __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
 
@@ -61,7 +64,9 @@ class Target:
     ------
     airmat.errors.InputError
         For an empty mesh, wrong shapes, indices out of range, NaN/inf
-        vertices or non-manifold edges (the count is in ``err.data``).
+        vertices or non-manifold edges (the count is in ``err.data``), and
+        for several separate sheets or a closed surface
+        (:func:`design.target_pieces.check_one_sheet`).
     """
 
     vertices: np.ndarray
@@ -73,6 +78,7 @@ class Target:
         v = np.asarray(self.vertices, dtype=float)
         f = np.asarray(self.faces)
         _check_mesh(v, f)
+        check_one_sheet(v, f)
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "faces", f.astype(np.int64))
 
@@ -141,7 +147,7 @@ def _check_mesh(v: np.ndarray, f: np.ndarray) -> None:
         raise InputError(f"{int(bad.sum())} of {len(v)} vertices have NaN or infinite coordinates "
                          f"(first: vertex {int(np.flatnonzero(bad)[0])})", n_bad=int(bad.sum()))
     _check_area(v, f)
-    _, counts = np.unique(face_edges(f), axis=0, return_counts=True)
+    _, counts = edge_counts(f)
     n_nm = int((counts > 2).sum())
     if n_nm:
         raise InputError(f"mesh has {n_nm} non-manifold edges (shared by more than two faces); "
@@ -204,7 +210,8 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         With ``path`` set: missing or unreadable file, a file cut short
         (:mod:`calib.scan_readers.cut_short`), unknown format or
         units, empty mesh, non-triangle faces, NaN/inf coordinates,
-        non-manifold edges, a size that does not fit the mattress.
+        non-manifold edges, several sheets or a closed surface, a size
+        that does not fit the mattress.
     """
     import trimesh
 

@@ -7,7 +7,7 @@ from airmat.geometry.graph_curvature import graph_curvature
 from airmat.geometry.grid import boundary_loop, cell_count, grid_faces, parametric_mesh, rectangle_grid
 from airmat.geometry.polyline import arc_length, interpolate_at, midpoints, points_at_fractions
 from airmat.geometry.topology import (boundary_edge_mask, boundary_vertex_mask, boundary_vertices,
-                                      cotangent_matrix, cotangent_umbrella, mesh_edges)
+                                      cotangent_matrix, cotangent_umbrella, edge_counts, face_edges, mesh_edges)
 
 
 @pytest.mark.parametrize("diagonals", ["alternating", "union_jack"])
@@ -73,6 +73,20 @@ def test_parametric_mesh_of_a_plane_is_the_grid_shifted():
     uv, f2 = rectangle_grid(0.8, 0.3, 9, 4, diagonals="alternating")
     assert np.array_equal(f, f2)
     assert np.allclose(v[:, :2], uv + [-0.3, 0.1], atol=1e-15) and np.allclose(v[:, 2], 2 * v[:, 0])
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_edge_counts_equal_numpys_row_unique(dtype):
+    """The one-key-per-edge unique gives the rows, order, counts and dtype of ``np.unique(axis=0)``."""
+    rng = np.random.default_rng(3)
+    faces = rng.integers(0, 500, size=(4000, 3)).astype(dtype)
+    edges, counts = edge_counts(faces)
+    rows = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    want, want_counts = np.unique(rows, axis=0, return_counts=True)
+    assert np.array_equal(face_edges(faces), rows) and face_edges(faces).dtype == rows.dtype
+    assert np.array_equal(edges, want) and edges.dtype == want.dtype
+    assert np.array_equal(counts, want_counts) and counts.max() > 1
+    assert edge_counts(np.zeros((0, 3), dtype))[0].shape == (0, 2)
 
 
 def test_boundary_masks_of_a_fan():

@@ -34,6 +34,12 @@ def good(tmp_path_factory):
     (root / "cut.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                                   "end_header\n0 0 0\n800 0 0\n0 700 0\n3 0 1\n")   # a copy that stopped
+    sheet = "".join(f"v {400 * i} {350 * j} {-100 * (i == 1)}\n" for j in range(3) for i in range(3))
+    quads = [(3 * j + i + 1, 3 * j + i + 2, 3 * j + i + 5, 3 * j + i + 4) for j in range(2) for i in range(2)]
+    faces = "".join(f"f {a} {b} {c}\nf {a} {c} {d}\n" for a, b, c, d in quads)
+    lifted = "".join(f"v {400 * i} {350 * j} {70 - 100 * (i == 1)}\n" for j in range(3) for i in range(3))
+    faces2 = "".join(f"f {a + 9} {b + 9} {c + 9}\nf {a + 9} {c + 9} {d + 9}\n" for a, b, c, d in quads)
+    (root / "two_sheets.obj").write_text(sheet + faces + lifted + faces2)   # both faces of a thickened vault
     scan = (root / "set" / "specimen_00.ply").read_bytes()
     (root / "cut_scan.ply").write_bytes(scan[:len(scan) // 2])
     return root
@@ -132,6 +138,9 @@ CASES = {
                          "line.obj: the target has no surface: 8 of 8 faces are degenerate"),
     "design-cut": ("design", [target("cut.ply"), "--mattress", "830x740", "--out", "OUT"],
                    "cut.ply: truncated PLY: last 'face' row has 3 values, expected 4"),
+    "design-two-sheets": ("design", [target("two_sheets.obj"), "--mattress", "830x740", "--out", "OUT"],
+                          "two_sheets.obj: the target is 2 separate sheets (50 %, 50 % of its area; the nearest "
+                          "to the largest is 70 mm from it)"),
     "design-degenerate": ("design", [target("flat_faces.obj"), "--mattress", "830x740", "--out", "OUT"],
                           "flat_faces.obj: the target has no surface: 24 of 24 faces"),
     "design-cal-L-text": ("design", ["--preset", "vault1", "--out", "OUT", "--calibration",
