@@ -1,4 +1,5 @@
-"""PLY header checks: complete body, and whether the vertex coordinates are 32-bit floats."""
+"""PLY header checks: a complete body, in the byte order the header says, and whether the vertex coordinates are
+32-bit floats."""
 
 from __future__ import annotations
 
@@ -53,6 +54,7 @@ def check_ply_complete(path: Path) -> bool:
         if not any(line.split()[:2] == ["format", "ascii"] for line in header):
             little = any(line.split()[:2] == ["format", "binary_little_endian"] for line in header)
             _check_binary_size(elements, fh, body_start, little, path)
+            _check_byte_order(header, fh, body_start, little, path)
             return False
         fh.seek(body_start)
         body = fh.read()
@@ -150,6 +152,65 @@ def _check_binary_size(elements, fh, body_start: int, little: bool, path) -> Non
     need = f"{least} bytes with every face as long as the first" if uniform is not None else f"at least {least} bytes"
     raise InputError(f"truncated PLY: the header declares {listed}, which take {need}; the body has {body}",
                      path=path)
+
+
+#: vertices sampled from the start of a binary body to check its byte order
+BYTE_ORDER_SAMPLE = 1000
+
+
+def _coordinate_share(xyz: np.ndarray) -> float:
+    """Share of the values that look like coordinates: finite, and 0 or between 1e-9 and 1e7 in size."""
+    size = np.abs(xyz)
+    return float((np.isfinite(xyz) & ((size == 0) | ((size > 1e-9) & (size < 1e7)))).mean())
+
+
+def _check_byte_order(header, fh, body_start: int, little: bool, path) -> None:
+    """Raise InputError when a binary body's vertices read as coordinates only in the other byte order.
+
+    A file written little-endian under a ``binary_big_endian`` header (or the
+    reverse) reads as values like 1e35 or 1e-41: trimesh then reported "face
+    indices must be integers in [0, 1715]" for a target, and the scan reader
+    an extent of 2.7e35 m. Only a body whose first element is ``vertex`` with
+    scalar ``x``, ``y``, ``z`` is checked, on its first
+    :data:`BYTE_ORDER_SAMPLE` rows; the declared order is refused when fewer
+    than half of their coordinates look like coordinates and more than 95 %
+    do in the other order (a scan padded with NaN rows fails both, and is left
+    to the reader).
+    """
+    props, first, count = [], None, 0
+    for line in header:
+        words = line.split()
+        if words[:1] == ["element"]:
+            if first is not None:
+                break
+            first, count = words[1:2], int(words[2])   # ply_elements checked the line
+        elif words[:1] == ["property"] and first is not None:
+            props.append(words[1:])
+    if first != ["vertex"] or any(len(p) != 2 or p[0] not in PLY_TYPES for p in props):
+        return
+    names = [p[1] for p in props]
+    if not {"x", "y", "z"} <= set(names) or len(set(names)) != len(names):
+        return
+    dtypes = {order: np.dtype([(name, order + PLY_TYPES[t]) for t, name in props]) for order in "<>"}
+    size = dtypes["<"].itemsize
+    fh.seek(body_start)
+    raw = fh.read(BYTE_ORDER_SAMPLE * size)
+    n = min(len(raw) // size, count)
+    if n == 0:
+        return
+    declared, other = ("<", ">") if little else (">", "<")
+    rows = {o: np.frombuffer(raw, dtypes[o], count=n) for o in "<>"}
+    with np.errstate(invalid="ignore", over="ignore"):   # the wrong order may read as signalling NaNs
+        xyz = {o: np.column_stack([rows[o][c].astype(float) for c in "xyz"]) for o in "<>"}
+    if _coordinate_share(xyz[declared]) < 0.5 and _coordinate_share(xyz[other]) > 0.95:
+        names = {"<": "binary_little_endian", ">": "binary_big_endian"}
+
+        def first_vertex(o):
+            return "(" + ", ".join(f"{v:.4g}" for v in xyz[o][0]) + ")"
+        raise InputError(f"the vertices do not read as coordinates in the header's byte order "
+                         f"({names[declared]}: the first is {first_vertex(declared)}) but do in the other "
+                         f"({first_vertex(other)}): the file was written {names[other]}; fix the header's "
+                         f"'format' line or export it again", path=path)
 
 
 def ply_elements(header, path):

@@ -42,6 +42,8 @@ def good(tmp_path_factory):
     (root / "two_sheets.obj").write_text(sheet + faces + lifted + faces2)   # both faces of a thickened vault
     scan = (root / "set" / "specimen_00.ply").read_bytes()
     (root / "cut_scan.ply").write_bytes(scan[:len(scan) // 2])
+    assert b"format binary_little_endian" in scan[:200]
+    (root / "swapped.ply").write_bytes(scan.replace(b"format binary_little_endian", b"format binary_big_endian", 1))
     return root
 
 
@@ -111,6 +113,8 @@ CASES = {
     "fit-seed": ("fit", [SCAN, "--seed", "-1"], "--seed: must be in [0, 2**32), got -1"),
     "fit-noise": ("fit", [SCAN, "--noise-mm", "0"], "--noise-mm must be > 0"),
     "fit-cut": ("fit", [target("cut_scan.ply")], "cut_scan.ply: truncated PLY: the header declares"),
+    "fit-byte-order": ("fit", [target("swapped.ply")], "swapped.ply: the vertices do not read as coordinates in "
+                       "the header's byte order (binary_big_endian: the first is"),
     "synth-seed": ("synth", ["OUT", "--seed", "-1"], "--seed: must be in [0, 2**32)"),
     "synth-seed-text": ("synth", ["OUT", "--seed", "one"], "expected an integer"),
     "synth-d": ("synth", ["OUT", "--d-mm", "1e6"], "--d-mm: 1e+06 mm is outside [10, 500] mm"),
