@@ -118,7 +118,9 @@ class Target:
     @property
     def bbox_diagonal(self) -> float:
         """Length (m) of the axis-aligned bounding box diagonal."""
-        return float(np.linalg.norm(np.ptp(self.vertices[np.unique(self.faces)], axis=0)))
+        used = np.zeros(len(self.vertices), bool)
+        used[self.faces.ravel()] = True
+        return float(np.linalg.norm(np.ptp(self.vertices[used], axis=0)))
 
     @property
     def face_areas(self) -> np.ndarray:
