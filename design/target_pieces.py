@@ -28,6 +28,8 @@ __all__ = ["sheet_pieces", "check_one_sheet", "GAP_FRACTION"]
 
 #: pieces whose boundaries come closer than this fraction of the target's bounding diagonal are joined
 GAP_FRACTION = 1e-3
+#: at most about this many points stand for the rim edges in the T-junction search
+MAX_RIM_SAMPLES = 1_000_000
 
 
 def _components(n: int, pairs: np.ndarray) -> np.ndarray:
@@ -97,9 +99,17 @@ def sheet_pieces(vertices: np.ndarray, faces: np.ndarray, *, gap: float) -> tupl
     piece_of_vertex[f.ravel()] = np.repeat(piece, 3)
     points = np.unique(rim)
     a, b = v[rim[:, 0]], v[rim[:, 1]]
-    half = 0.5 * float(np.linalg.norm(b - a, axis=1).max())
-    near = cKDTree(v[points]).sparse_distance_matrix(cKDTree(0.5 * (a + b)), half + gap, output_type="ndarray")
-    i, j = points[near["i"]], near["j"]
+    # each rim edge cut into pieces no longer than `step`, represented by their midpoints: a point within
+    # gap of an edge is within step / 2 + gap of one of them (a radius of half the longest edge instead
+    # would pair every point with every edge of a fine mesh that has a few long rim edges)
+    length = np.linalg.norm(b - a, axis=1)
+    step = max(float(np.median(length)), float(length.sum()) / MAX_RIM_SAMPLES, np.finfo(float).tiny)
+    cuts = np.maximum(np.ceil(length / step), 1).astype(np.int64)
+    seg = np.repeat(np.arange(len(rim)), cuts)
+    frac = (np.arange(len(seg)) - np.repeat(np.cumsum(cuts) - cuts, cuts) + 0.5) / cuts[seg]
+    samples = a[seg] + frac[:, None] * (b - a)[seg]
+    near = cKDTree(v[points]).sparse_distance_matrix(cKDTree(samples), 0.5 * step + gap, output_type="ndarray")
+    i, j = points[near["i"]], seg[near["j"]]
     other = piece_of_vertex[i] != piece_of_vertex[rim[j, 0]]
     i, j = i[other], j[other]
     touch = _segment_distance(v[i], a[j], b[j]) <= gap

@@ -112,3 +112,17 @@ def test_pieces_that_meet_only_at_t_junctions_are_one_sheet():
     assert cdist(left[0], right[0]).min() == pytest.approx(25.0)
     assert sheet_pieces(v, f, gap=0.7)[1] == 1
     assert sheet_pieces(v, f, gap=0.7)[0].tolist() == [0] * len(f)
+
+
+def test_a_long_rim_edge_joins_a_fine_sheet_at_its_t_junctions():
+    """A fine patch (4 mm edges) whose seam vertices lie on one 800 mm edge of a coarse two-triangle patch: one
+    sheet; a far copy of the coarse patch stays a sheet of its own."""
+    fine = _sheet(101, 176, 0, 400, 0, 700)
+    quad = np.array([[400, -50, 0], [800, -50, 0], [800, 750, 0], [400, 750, 0.0]])
+    coarse = (quad, np.array([[0, 1, 2], [0, 2, 3]]))
+    v, f = _join(fine, coarse)
+    sheet, n = sheet_pieces(v, f, gap=0.5)
+    assert n == 1
+    v3, f3 = _join(fine, coarse, (quad + [0, 0, 300], coarse[1]))
+    sheet, n = sheet_pieces(v3, f3, gap=0.5)
+    assert n == 2 and sheet[-1] != sheet[0] and sheet[-3] == sheet[0]
