@@ -14,6 +14,8 @@ option              range            why
                                      finer than the inflation mesh limit of the
                                      mattress is refused too (:func:`check_resolution`)
 ``--points``        [1000, 1e7]      points per synthetic scan (``synth``, ``demo``)
+``--mattress``      [50, 2e4] mm     each side (``design``): the shortest string end
+                                     spacing to a 20 m hall; metres are named
 ==================  ===============  ==========================================
 """
 
@@ -33,6 +35,7 @@ RANGES = {
     "--L-mm": (50.0, 2000.0, True, "mm"),
     "--resolution-mm": (0.0, 75.0, False, "mm"),
     "--points": (1000, 10_000_000, True, "points"),
+    "--mattress": (50.0, 20_000.0, True, "mm"),   # per side; parsed by airmat.cli.design.parse_size_mm
 }
 
 

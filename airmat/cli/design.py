@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import re
 
-from airmat.cli._ranges import check_range
+from airmat.cli._ranges import RANGES, check_range
 from airmat.constants import PAPER_D
 from airmat.errors import InputError
 from airmat.units import mm_to_m
@@ -79,11 +79,31 @@ def add_parser(sub, parents):
 
 
 def parse_size_mm(text: str) -> tuple[float, float]:
-    """``"830x740"`` -> (0.83, 0.74) m; InputError for anything else."""
+    """``"830x740"`` -> (0.83, 0.74) m; InputError for anything else.
+
+    Each side must lie in ``RANGES["--mattress"]`` (mm); a size that fits once
+    multiplied by 1000 is taken for metres and the message says so.
+
+    Examples
+    --------
+    >>> parse_size_mm("830x740")
+    (0.83, 0.74)
+    >>> parse_size_mm("0.83x0.74")
+    Traceback (most recent call last):
+    ...
+    airmat.errors.InputError: --mattress: 0.83 x 0.74 mm is outside [50, 20000] mm per side; sizes are in mm: for a 0.83 x 0.74 m mattress give 830x740
+    """
     m = _SIZE.match(text or "")
     if not m or float(m.group(1)) <= 0 or float(m.group(2)) <= 0:
         raise InputError(f"--mattress: expected WIDTHxHEIGHT in mm, e.g. 830x740, got {text!r}")
-    return mm_to_m(float(m.group(1))), mm_to_m(float(m.group(2)))
+    w, h = float(m.group(1)), float(m.group(2))
+    lo, hi, _, unit = RANGES["--mattress"]
+    if not (lo <= w <= hi and lo <= h <= hi):
+        hint = (f"; sizes are in mm: for a {w:g} x {h:g} m mattress give {1e3 * w:g}x{1e3 * h:g}"
+                if lo <= 1e3 * w <= hi and lo <= 1e3 * h <= hi else "")
+        raise InputError(f"--mattress: {w:g} x {h:g} mm is outside [{lo:g}, {hi:g}] {unit} per side{hint}",
+                         option="--mattress", value=(w, h))
+    return mm_to_m(w), mm_to_m(h)
 
 
 def _positive(args, names):

@@ -145,6 +145,9 @@ CASES = {
     "design-two-sheets": ("design", [target("two_sheets.obj"), "--mattress", "830x740", "--out", "OUT"],
                           "two_sheets.obj: the target is 2 separate sheets (50 %, 50 % of its area; the nearest "
                           "to the largest is 70 mm from it)"),
+    "design-mattress-metres": ("design", [target("line.obj"), "--mattress", "0.83x0.74", "--out", "OUT"],
+                               "--mattress: 0.83 x 0.74 mm is outside [50, 20000] mm per side; sizes are in mm: "
+                               "for a 0.83 x 0.74 m mattress give 830x740"),
     "design-degenerate": ("design", [target("flat_faces.obj"), "--mattress", "830x740", "--out", "OUT"],
                           "flat_faces.obj: the target has no surface: 24 of 24 faces"),
     "design-cal-L-text": ("design", ["--preset", "vault1", "--out", "OUT", "--calibration",
