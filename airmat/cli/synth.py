@@ -47,8 +47,7 @@ def run(args) -> int:
         raise InputError(f"--delta-mm: {args.delta_mm:g} mm is outside [0, L/2) = [0, {args.L_mm / 2:g}) mm")
     if not (0 <= args.scatter <= 1):
         raise InputError(f"--scatter: {args.scatter:g} is outside [0, 1] (a log-sd)")
-    if not (1000 <= args.points <= 10_000_000):
-        raise InputError(f"--points: {args.points} is outside [1000, 10000000]")
+    check_range("--points", args.points)
     ratios = DEFAULT_L_OVER_L if args.l_over_L is None else _ratios(args.l_over_L)
     check()  # a Ctrl-C that a library's import swallowed
     cs = calibration_set(args.outdir, delta=args.delta_mm * MM, d=args.d_mm * MM, L=args.L_mm * MM,

@@ -23,7 +23,7 @@ def snapshot(folder):
 
 
 def test_synth_twice_same_seed_same_bytes(tmp_path, capsys):
-    args = ["--points", "3000", "--l-over-L", "0.3,0.6,0.9", "--seed", "7"]
+    args = ["--points", "10000", "--l-over-L", "0.3,0.6,0.9", "--seed", "7"]
     assert main(["synth", str(tmp_path / "a"), *args]) == 0
     assert "truth: Delta = 18 mm" in capsys.readouterr().out
     assert main(["synth", str(tmp_path / "b"), *args]) == 0
@@ -36,7 +36,7 @@ def test_synth_twice_same_seed_same_bytes(tmp_path, capsys):
 
 
 def test_synth_options_reach_the_truth(tmp_path):
-    assert main(["synth", str(tmp_path), "--points", "2000", "--l-over-L", "0.3,0.6,0.9",
+    assert main(["synth", str(tmp_path), "--points", "10000", "--l-over-L", "0.3,0.6,0.9",
                  "--delta-mm", "10", "--d-mm", "50", "--L-mm", "250", "--scatter", "0"]) == 0
     truth = json.loads((tmp_path / "truth.json").read_text())
     assert (truth["delta_mm"], truth["d_mm"], truth["L_mm"], truth["sigma_per_m"]) == (10, 50, 250, 0)
@@ -50,7 +50,7 @@ def test_synth_options_reach_the_truth(tmp_path):
 ])
 def test_synth_bad_input(tmp_path, capsys, args, match):
     out = tmp_path / "set"
-    assert main(["synth", str(out), "--points", "2000", *args]) == 2
+    assert main(["synth", str(out), "--points", "10000", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("airmat synth: ") and match in err[0]
     assert not out.exists()

@@ -23,7 +23,7 @@ from airmat.atomic import PUBLISH_DELAY_ENV
 from airmat.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-ARGS = ["--points", "2000", "-q"]
+ARGS = ["--points", "10000", "-q"]
 WINDOW = 1.0  # s slept before and after the swap when aiming at the publish step
 
 

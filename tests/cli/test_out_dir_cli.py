@@ -65,7 +65,7 @@ def test_out_may_not_hold_an_input(tmp_path, capsys):
 def test_out_may_not_be_the_working_folder(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "mine.txt").write_text("keep me")
-    code, err = _run(["synth", "OUT", "--points", "2000"], ".", capsys)
+    code, err = _run(["synth", "OUT", "--points", "10000"], ".", capsys)
     assert code == 2
     assert err.startswith("airmat synth: .: is the working folder or contains it;") and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.txt"]
