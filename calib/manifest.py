@@ -14,6 +14,13 @@ A CSV file with a header and one row per scanned specimen::
 
 Blank lines and lines starting with ``#`` are ignored. Values are converted
 to metres here; the library works in SI.
+
+What a spreadsheet writes is read as meant: a UTF-8 byte-order mark, CRLF
+line ends and quoted cells; a header without commas but with semicolons
+(Excel where the decimal separator is a comma) or tabs sets the delimiter,
+and with semicolons ``107,7`` is 107.7; a scan name written on Windows
+(``scans\\specimen_00.ply``) is found with ``/`` separators when it is not
+found as written.
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PureWindowsPath
 
 import numpy as np
 
@@ -76,12 +83,22 @@ def _rows(path: Path):
     if not lines:
         raise InputError("empty manifest: expected a header "
                          f"{','.join(REQUIRED_COLUMNS)}", path=path)
-    parsed = list(csv.reader([ln for _, ln in lines]))
+    delimiter = _delimiter(lines[0][1])
+    parsed = list(csv.reader([ln for _, ln in lines], delimiter=delimiter))
     header = [h.strip() for h in parsed[0]]
-    return header, [(lines[k][0], [c.strip() for c in row]) for k, row in enumerate(parsed) if k]
+    return header, [(lines[k][0], [c.strip() for c in row]) for k, row in enumerate(parsed) if k], delimiter
 
 
-def _number(value: str, column: str, line: int, path: Path) -> float:
+def _delimiter(header: str) -> str:
+    """The header's delimiter: a comma, else a semicolon or a tab when the header holds one."""
+    if "," in header:
+        return ","
+    return next((d for d in (";", "\t") if d in header), ",")
+
+
+def _number(value: str, column: str, line: int, path: Path, *, decimal_comma: bool = False) -> float:
+    if decimal_comma and value.count(",") == 1 and "." not in value:
+        value = value.replace(",", ".")
     try:
         x = float(value)
     except ValueError:
@@ -127,7 +144,8 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
         specimens than the calibration's parameters.
     """
     path = Path(path)
-    header, rows = _rows(path)
+    header, rows, delimiter = _rows(path)
+    comma = delimiter == ";"
     missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
         raise InputError(f"missing column(s) {', '.join(missing)}: the header must contain "
@@ -140,13 +158,16 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
             raise InputError(f"line {line}: {len(row)} values for {len(header)} columns",
                              path=path, line=line)
         scan = row[col["scan"]]
-        l_mm = _number(row[col["l_mm"]], "l_mm", line, path)
-        L_mm = _number(row[col["L_mm"]], "L_mm", line, path)
+        l_mm = _number(row[col["l_mm"]], "l_mm", line, path, decimal_comma=comma)
+        L_mm = _number(row[col["L_mm"]], "L_mm", line, path, decimal_comma=comma)
         off = row[col["surface_offset_mm"]] if "surface_offset_mm" in col else ""
-        off_mm = _number(off, "surface_offset_mm", line, path) if off else 0.0
+        off_mm = _number(off, "surface_offset_mm", line, path, decimal_comma=comma) if off else 0.0
         _check_row(line, scan, l_mm, L_mm, path)
         try:
             resolved = (path.parent / scan).resolve()
+            if "\\" in scan and not resolved.exists():   # written on Windows: try its separators as /
+                posix = (path.parent / PureWindowsPath(scan).as_posix()).resolve()
+                resolved = posix if posix.exists() else resolved
         except (OSError, RuntimeError) as err:  # RuntimeError: a symlink loop (Python < 3.13)
             raise InputError(f"line {line}: scan {scan!r} cannot be resolved: {err}", path=path,
                              line=line) from None

@@ -85,3 +85,32 @@ def test_missing_scan_allowed_when_not_checking(tmp_path):
     assert len(read_manifest(path, check_files=False)) == 3
     with pytest.raises(InputError, match="not found"):
         read_manifest(path)
+
+
+@pytest.mark.parametrize("text", [
+    "\ufeffscan,l_mm,L_mm\r\na.ply,90,300\r\nb.ply,107.7,300\r\nc.ply,300,300\r\n",   # Excel's UTF-8 CSV, CRLF
+    '"scan","l_mm","L_mm"\n"a.ply","90","300"\n"b.ply","107.7","300"\n"c.ply","300","300"\n',
+    "scan;l_mm;L_mm\na.ply;90;300\nb.ply;107,7;300\nc.ply;300;300\n",   # a decimal-comma locale's Excel
+    "scan\tl_mm\tL_mm\na.ply\t90\t300\nb.ply\t107.7\t300\nc.ply\t300\t300\n",
+])
+def test_what_a_spreadsheet_writes_reads_as_meant(tmp_path, text):
+    m = read_manifest(make(tmp_path, text))
+    assert m.scans == ("a.ply", "b.ply", "c.ply")
+    np.testing.assert_allclose(m.l * 1e3, [90, 107.7, 300])
+
+
+def test_a_thousands_separator_is_not_guessed(tmp_path):
+    text = "scan;l_mm;L_mm\na.ply;90;1.200,5\nb.ply;100;300\nc.ply;110;300\n"
+    with pytest.raises(InputError, match=r"line 2: L_mm = '1.200,5' is not a number"):
+        read_manifest(make(tmp_path, text))
+
+
+def test_a_scan_path_written_on_windows_is_found(tmp_path):
+    (tmp_path / "scans").mkdir()
+    text = "scan,l_mm,L_mm\nscans\\a.ply,90,300\nscans\\b.ply,100,300\nscans/c.ply,110,300\n"
+    m = read_manifest(make(tmp_path, text, scans=("scans/a.ply", "scans/b.ply", "scans/c.ply")))
+    assert m.scans[0] == "scans\\a.ply"
+    assert m.scan_paths[0] == str((tmp_path / "scans" / "a.ply").resolve())
+    with pytest.raises(InputError, match=r"line 2: scan file 'scans\\\\x.ply' not found"):
+        read_manifest(make(tmp_path, text.replace("scans\\a.ply", "scans\\x.ply"),
+                           scans=("scans/a.ply", "scans/b.ply", "scans/c.ply")))
