@@ -29,6 +29,7 @@ from airmat.geometry.topology import edge_counts
 from airmat.units import SCAN_UNITS
 from calib.scan_readers.cut_short import check_complete
 from calib.scan_readers.obj_indices import check_obj_indices
+from calib.scan_readers.ply_header import ply_vertex_float32
 from calib.scan_readers.raw import library_message
 from design.target_pieces import check_one_sheet
 
@@ -171,6 +172,40 @@ def _check_area(v: np.ndarray, f: np.ndarray) -> None:
                          f"(zero area; collinear or coincident points)", n_degenerate=n_degenerate)
 
 
+#: float32 coordinates rounded to more than this fraction of the median edge are refused
+FLOAT32_STEP_FRACTION = 0.01
+
+
+def _stored_float32(path: Path) -> bool:
+    """Whether the file stores its coordinates as 32-bit floats (a float PLY, a binary STL)."""
+    ext = path.suffix.lower()
+    if ext == ".ply":
+        return ply_vertex_float32(path)
+    if ext == ".stl":
+        with open(path, "rb") as fh:
+            head = fh.read(84)
+        return len(head) == 84 and path.stat().st_size == 84 + 50 * int.from_bytes(head[80:], "little")
+    return False
+
+
+def _check_float32_rounding(path: Path, v: np.ndarray, f: np.ndarray, units: str) -> None:
+    """Refuse float32 coordinates so far from the origin that their rounding is coarse against the edges.
+
+    A georeferenced model (millions of mm from the origin) saved as float PLY or binary STL
+    keeps only about 7 digits: at 4.2e9 mm the step is 512 mm, vertices merge, and the
+    mesh was refused as "1018 non-manifold edges".
+    """
+    big = float(np.abs(v).max())
+    step = float(np.spacing(np.float32(big)))
+    # the typical edge from the bounding box and the face count: the rounded edges themselves are not to be trusted
+    edge = float(np.linalg.norm(np.ptp(v[f.ravel()], axis=0))) / np.sqrt(len(f) / 2)
+    if step > FLOAT32_STEP_FRACTION * edge:
+        raise InputError(f"its 32-bit float coordinates reach {big:.3g} {units} from the origin, where they are "
+                         f"rounded to steps of {step:.3g} {units}, against edges of about {edge:.2g} {units}: move the "
+                         "model near the origin before exporting, or export double precision (PLY double, OBJ)",
+                         path=path, float32_step=step, typical_edge=edge)
+
+
 def _declared_polygons(path: Path, mesh) -> int | None:
     """Number of faces the file declares (polygons of any size), or None when unknown."""
     ext = path.suffix.lower().lstrip(".")
@@ -241,6 +276,9 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         raise InputError(f"the mesh has non-triangle faces ({declared} polygons make {len(faces)} "
                          "triangles); triangulate it first (e.g. Blender: Triangulate Faces)",
                          path=path, n_polygons=declared)
+    if (len(faces) and faces.ndim == 2 and np.isfinite(vertices).all() and np.issubdtype(faces.dtype, np.integer)
+            and 0 <= faces.min() and faces.max() < len(vertices) and _stored_float32(path)):
+        _check_float32_rounding(path, vertices, faces, units)
     try:
         _check_mesh(vertices, faces)  # NaNs before merging, which would hide them
         mesh = trimesh.Trimesh(vertices, faces, process=False)

@@ -171,3 +171,24 @@ def test_obj_relative_indices_after_more_vertices_are_refused_others_read_right(
     with pytest.raises(InputError, match="relative .* absolute indices") as err:
         load_target(path)
     assert err.value.path == str(path)
+
+
+@pytest.mark.parametrize("ext", ["ply", "stl"])
+def test_float32_coordinates_far_from_the_origin_are_refused_saying_why(tmp_path, ext):
+    """A georeferenced model (4200 km north, in mm) stored as 32-bit floats is rounded to 256 mm steps; the same
+    model 300 m from the origin, or stored in double precision (OBJ), reads."""
+    v, f = _grid_mesh(n=21, size_mm=800.0)
+    far = tmp_path / f"utm.{ext}"
+    trimesh.Trimesh(v + [5.0e8, 4.2e9, 1.2e5], f, process=False).export(far)
+    with pytest.raises(InputError, match=r"32-bit float coordinates reach 4.2e\+09 mm from the origin, where they "
+                                         r"are rounded to steps of 256 mm") as err:
+        load_target(far)
+    assert err.value.path == str(far) and err.value.data["float32_step"] == 256.0
+    near = tmp_path / f"site.{ext}"
+    trimesh.Trimesh(v + [3.0e5, 2.0e5, 1.0e4], f, process=False).export(near)
+    assert len(load_target(near, mattress=SMALL).faces) == len(f)
+    obj = tmp_path / "utm.obj"
+    obj.write_text("".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in v + [5.0e8, 4.2e9, 1.2e5])
+                   + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f))
+    t = load_target(obj, mattress=SMALL)
+    assert len(t.faces) == len(f) and t.bbox_diagonal == pytest.approx(np.linalg.norm(np.ptp(v, axis=0)) * 1e-3)
