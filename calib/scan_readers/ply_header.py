@@ -8,9 +8,24 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.ply_points import PLY_TYPES
+from calib.scan_readers.ply_points import PLY_TYPES, xyz_names
 
-__all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32"]
+__all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32", "ply_vertex_names"]
+
+
+def ply_vertex_names(path: Path) -> list[str]:
+    """The names of a PLY file's ``vertex`` properties, in order (list properties included)."""
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    end = head.find(b"end_header")
+    names, in_vertex = [], False
+    for line in head[:max(end, 0)].decode("ascii", errors="replace").split("\n"):
+        words = line.split()
+        if words[:1] == ["element"]:
+            in_vertex = words[1:2] == ["vertex"]
+        elif in_vertex and words[:1] == ["property"] and len(words) >= 3:
+            names.append(words[-1])
+    return names
 
 
 def ply_vertex_float32(path: Path) -> bool:
@@ -23,7 +38,7 @@ def ply_vertex_float32(path: Path) -> bool:
         words = line.split()
         if words[:1] == ["element"]:
             in_vertex = words[1:2] == ["vertex"]
-        elif in_vertex and words[:1] == ["property"] and words[-1:] == ["x"]:
+        elif in_vertex and words[:1] == ["property"] and words[-1:] in (["x"], ["X"]):
             return words[1] in ("float", "float32")
     return False
 
@@ -188,8 +203,8 @@ def _check_byte_order(header, fh, body_start: int, little: bool, path) -> None:
             props.append(words[1:])
     if first != ["vertex"] or any(len(p) != 2 or p[0] not in PLY_TYPES for p in props):
         return
-    names = [p[1] for p in props]
-    if not {"x", "y", "z"} <= set(names) or len(set(names)) != len(names):
+    fields = xyz_names([p[1] for p in props])
+    if fields is None:
         return
     dtypes = {order: np.dtype([(name, order + PLY_TYPES[t]) for t, name in props]) for order in "<>"}
     size = dtypes["<"].itemsize
@@ -201,7 +216,7 @@ def _check_byte_order(header, fh, body_start: int, little: bool, path) -> None:
     declared, other = ("<", ">") if little else (">", "<")
     rows = {o: np.frombuffer(raw, dtypes[o], count=n) for o in "<>"}
     with np.errstate(invalid="ignore", over="ignore"):   # the wrong order may read as signalling NaNs
-        xyz = {o: np.column_stack([rows[o][c].astype(float) for c in "xyz"]) for o in "<>"}
+        xyz = {o: np.column_stack([rows[o][c].astype(float) for c in fields]) for o in "<>"}
     if _coordinate_share(xyz[declared]) < 0.5 and _coordinate_share(xyz[other]) > 0.95:
         names = {"<": "binary_little_endian", ">": "binary_big_endian"}
 

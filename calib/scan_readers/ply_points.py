@@ -16,12 +16,35 @@ import numpy as np
 from airmat.errors import InputError
 from calib.scan_readers.raw import RawCloud
 
-__all__ = ["read_binary_points", "PLY_TYPES"]
+__all__ = ["read_binary_points", "PLY_TYPES", "xyz_names"]
 
 #: PLY scalar type -> numpy type character
 PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
           "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
           "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+
+
+def xyz_names(names) -> tuple[str, str, str] | None:
+    """The vertex properties holding x, y, z: ``x y z``, else ``X Y Z`` (any case); None when absent or ambiguous.
+
+    Examples
+    --------
+    >>> xyz_names(["x", "y", "z", "red"]), xyz_names(["X", "Y", "Z"]), xyz_names(["x", "X", "y", "z"])
+    (('x', 'y', 'z'), ('X', 'Y', 'Z'), ('x', 'y', 'z'))
+    >>> xyz_names(["px", "py", "pz"]) is None
+    True
+    """
+    names = list(names)
+    if len(set(names)) != len(names):
+        return None
+    if {"x", "y", "z"} <= set(names):
+        return ("x", "y", "z")
+    lower = {}
+    for name in names:
+        lower.setdefault(name.lower(), []).append(name)
+    if all(len(lower.get(c, [])) == 1 for c in "xyz"):
+        return tuple(lower[c][0] for c in "xyz")
+    return None
 
 
 def read_binary_points(path: Path) -> RawCloud | None:
@@ -54,19 +77,19 @@ def read_binary_points(path: Path) -> RawCloud | None:
     layout = _vertex_layout(head[:body].decode("ascii", errors="replace").split("\n"))
     if layout is None:
         return None
-    dtype, count = layout
+    dtype, count, xyz_fields = layout
     if path.stat().st_size - body < dtype.itemsize * count:
         raise InputError(f"truncated PLY: element 'vertex' declares {count} rows of {dtype.itemsize} bytes, "
                          f"the body has {path.stat().st_size - body} bytes", path=path)
     data = np.fromfile(path, dtype=dtype, count=count, offset=body)
     xyz = np.empty((count, 3))
-    for j, name in enumerate("xyz"):
+    for j, name in enumerate(xyz_fields):
         xyz[:, j] = data[name]
-    return RawCloud(vertices=xyz, float32=dtype["x"].itemsize == 4)
+    return RawCloud(vertices=xyz, float32=dtype[xyz_fields[0]].itemsize == 4)
 
 
 def _vertex_layout(header: list[str]):
-    """(structured dtype, count) of a binary file's only element ``vertex``, or None."""
+    """(structured dtype, count, x/y/z field names) of a binary file's only element ``vertex``, or None."""
     order = None
     elements = []
     for line in header:
@@ -85,6 +108,7 @@ def _vertex_layout(header: list[str]):
     if any(len(p) != 2 or p[0] not in PLY_TYPES for p in props):
         return None  # list properties
     names = [p[1] for p in props]
-    if not {"x", "y", "z"} <= set(names) or len(set(names)) != len(names):
+    fields = xyz_names(names)
+    if fields is None:
         return None
-    return np.dtype([(name, order + PLY_TYPES[t]) for t, name in props]), count
+    return np.dtype([(name, order + PLY_TYPES[t]) for t, name in props]), count, fields
