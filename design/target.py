@@ -29,7 +29,7 @@ from airmat.geometry.topology import edge_counts
 from airmat.units import SCAN_UNITS
 from calib.scan_readers.cut_short import check_complete
 from calib.scan_readers.obj_indices import check_obj_indices
-from calib.scan_readers.ply_header import ply_vertex_float32
+from calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
 from calib.scan_readers.raw import library_message
 from design.target_pieces import check_one_sheet
 
@@ -264,8 +264,13 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     check_complete(path)   # a file cut short would otherwise give part of the surface, or a cryptic error
     if ext == "obj":
         check_obj_indices(path)
+    source = path
+    if ext == "ply":
+        fields = ply_xyz_fields(path)
+        if fields != ("x", "y", "z"):     # X Y Z: trimesh reads lower-case names only
+            source = ply_renamed_xyz(path, fields)
     try:
-        mesh = trimesh.load(path, file_type=ext, process=False, force="mesh")
+        mesh = trimesh.load(source, file_type=ext, process=False, force="mesh")
         declared = _declared_polygons(path, mesh)
     except (ValueError, KeyError, IndexError, TypeError, OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the target as {ext.upper()} (corrupt?): {library_message(exc)}",

@@ -13,8 +13,8 @@ import numpy as np
 
 from airmat.errors import InputError
 from calib.scan_readers.obj_indices import check_obj_indices
-from calib.scan_readers.ply_header import ply_vertex_float32, ply_vertex_names
-from calib.scan_readers.ply_points import read_binary_points, xyz_names
+from calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
+from calib.scan_readers.ply_points import read_binary_points
 from calib.scan_readers.raw import RawCloud, library_message
 
 __all__ = ["read"]
@@ -31,30 +31,12 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
         if cloud is not None:
             return cloud
         float32 = ply_vertex_float32(path)
-        names = ply_vertex_names(path)
-        fields = xyz_names(names)
-        if fields is None:
-            raise InputError(f"the PLY's vertex element has no x, y, z properties (it has: "
-                             f"{', '.join(names) or 'none'})", path=path)
+        fields = ply_xyz_fields(path)
         if fields != ("x", "y", "z"):     # X Y Z: trimesh reads lower-case names only
-            return _load_renamed(path, fields, float32)
+            geometry = _load(path, suffix, ply_renamed_xyz(path, fields))
+            vertices, faces = _vertices_faces(geometry, path)
+            return RawCloud(vertices=vertices, faces=faces, float32=float32)
     geometry = _load(path, suffix)
-    vertices, faces = _vertices_faces(geometry, path)
-    return RawCloud(vertices=vertices, faces=faces, float32=float32)
-
-
-def _load_renamed(path: Path, fields, float32: bool) -> RawCloud:
-    """A PLY whose coordinates are named other than ``x y z`` (``X Y Z``), read with them renamed in its header."""
-    import io
-    import re
-
-    data = path.read_bytes()
-    end = data.find(b"end_header")
-    head = data[:end]
-    for old, new in zip(fields, "xyz"):
-        head = re.sub(rb"(?m)^(property\s+\S+\s+)" + re.escape(old.encode()) + rb"(\s*)$",
-                      rb"\g<1>" + new.encode() + rb"\g<2>", head)
-    geometry = _load(path, ".ply", io.BytesIO(head + data[end:]))
     vertices, faces = _vertices_faces(geometry, path)
     return RawCloud(vertices=vertices, faces=faces, float32=float32)
 

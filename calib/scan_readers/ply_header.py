@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +12,8 @@ import numpy as np
 from airmat.errors import InputError
 from calib.scan_readers.ply_points import PLY_TYPES, xyz_names
 
-__all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32", "ply_vertex_names"]
+__all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32", "ply_vertex_names", "ply_xyz_fields",
+           "ply_renamed_xyz"]
 
 
 def ply_vertex_names(path: Path) -> list[str]:
@@ -26,6 +29,27 @@ def ply_vertex_names(path: Path) -> list[str]:
         elif in_vertex and words[:1] == ["property"] and len(words) >= 3:
             names.append(words[-1])
     return names
+
+
+def ply_xyz_fields(path: Path) -> tuple[str, str, str]:
+    """The names of a PLY file's x, y, z vertex properties (``x y z`` or ``X Y Z``); InputError when it has none."""
+    names = ply_vertex_names(path)
+    fields = xyz_names(names)
+    if fields is None:
+        raise InputError(f"the PLY's vertex element has no x, y, z properties (it has: "
+                         f"{', '.join(names) or 'none'})", path=path)
+    return fields
+
+
+def ply_renamed_xyz(path: Path, fields) -> io.BytesIO:
+    """The PLY file in memory with its coordinate properties ``fields`` renamed ``x y z`` (trimesh reads only those)."""
+    data = path.read_bytes()
+    end = data.find(b"end_header")
+    head = data[:end]
+    for old, new in zip(fields, "xyz"):
+        head = re.sub(rb"(?m)^(property\s+\S+\s+)" + re.escape(old.encode()) + rb"(\s*)$",
+                      rb"\g<1>" + new.encode() + rb"\g<2>", head)
+    return io.BytesIO(head + data[end:])
 
 
 def ply_vertex_float32(path: Path) -> bool:
