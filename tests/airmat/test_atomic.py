@@ -220,6 +220,21 @@ def test_ctrl_c_right_after_the_staging_folder_is_made_leaves_nothing(tmp_path, 
     assert not atomic._HELD
 
 
+def test_ctrl_c_right_after_an_atomic_writes_temporary_file_is_made_leaves_nothing(tmp_path, monkeypatch):
+    real_mkstemp = atomic.tempfile.mkstemp
+
+    def mkstemp_then_sigint(*args, **kwargs):
+        made = real_mkstemp(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)
+        return made
+    monkeypatch.setattr(atomic.tempfile, "mkstemp", mkstemp_then_sigint)
+    target = tmp_path / "a.json"
+    target.write_text("old")
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_text(target, "new")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"] and target.read_text() == "old"
+
+
 # ---------------------------------------------------------------- stale staging folders
 
 _HOLD = """
