@@ -27,7 +27,7 @@ import numpy as np
 from airmat.errors import InputError
 from airmat.geometry.topology import edge_counts
 from airmat.units import SCAN_UNITS
-from calib.scan_readers.cut_short import check_complete
+from calib.scan_readers.cut_short import check_complete, complete_binary_stl
 from calib.scan_readers.obj_indices import check_obj_indices
 from calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
 from calib.scan_readers.raw import library_message
@@ -181,11 +181,7 @@ def _stored_float32(path: Path) -> bool:
     ext = path.suffix.lower()
     if ext == ".ply":
         return ply_vertex_float32(path)
-    if ext == ".stl":
-        with open(path, "rb") as fh:
-            head = fh.read(84)
-        return len(head) == 84 and path.stat().st_size == 84 + 50 * int.from_bytes(head[80:], "little")
-    return False
+    return ext == ".stl" and complete_binary_stl(path)
 
 
 def _check_float32_rounding(path: Path, v: np.ndarray, f: np.ndarray, units: str) -> None:
@@ -281,11 +277,10 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         raise InputError(f"the mesh has non-triangle faces ({declared} polygons make {len(faces)} "
                          "triangles); triangulate it first (e.g. Blender: Triangulate Faces)",
                          path=path, n_polygons=declared)
-    if (len(faces) and faces.ndim == 2 and np.isfinite(vertices).all() and np.issubdtype(faces.dtype, np.integer)
-            and 0 <= faces.min() and faces.max() < len(vertices) and _stored_float32(path)):
-        _check_float32_rounding(path, vertices, faces, units)
     try:
         _check_mesh(vertices, faces)  # NaNs before merging, which would hide them
+        if _stored_float32(path):     # before merging too: the rounding merges vertices
+            _check_float32_rounding(path, vertices, faces, units)
         mesh = trimesh.Trimesh(vertices, faces, process=False)
         mesh.merge_vertices()
         target = Target(np.asarray(mesh.vertices) * UNITS[units], np.asarray(mesh.faces),

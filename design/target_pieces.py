@@ -78,9 +78,12 @@ def sheet_pieces(vertices: np.ndarray, faces: np.ndarray, *, gap: float) -> tupl
     >>> sheet_pieces(np.vstack([v[:3], v[:3] + [0, 0, 5]]), np.array([[0, 1, 2], [3, 4, 5]]), gap=1e-3)
     (array([0, 1]), 2)
     """
-    v = np.asarray(vertices, dtype=float)
     f = np.asarray(faces)
-    edges, counts = edge_counts(f)
+    return _sheets(np.asarray(vertices, dtype=float), f, *edge_counts(f), gap)
+
+
+def _sheets(v, f, edges, counts, gap):
+    """:func:`sheet_pieces` with the mesh's :func:`~airmat.geometry.topology.edge_counts` given."""
     piece, n = _face_components(len(v), f, edges)
     if n == 1:
         return piece, 1
@@ -149,7 +152,8 @@ def check_one_sheet(vertices: np.ndarray, faces: np.ndarray, *, gap_fraction: fl
     used = np.zeros(len(v), bool)
     used[f.ravel()] = True
     diag = float(np.linalg.norm(np.ptp(v[used], axis=0)))
-    sheet, n = sheet_pieces(v, f, gap=gap_fraction * diag)
+    edges, counts = edge_counts(f)
+    sheet, n = _sheets(v, f, edges, counts, gap_fraction * diag)
     if n > 1:
         p = v[f]
         area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
@@ -164,7 +168,6 @@ def check_one_sheet(vertices: np.ndarray, faces: np.ndarray, *, gap_fraction: fl
                          f"largest is {gap_text} mm from it): the mattress follows one surface, so join "
                          "them into one or delete all but one (e.g. both faces of a thickened surface)",
                          n_sheets=n, gap_mm=gap_mm)
-    _, counts = edge_counts(f)
     if not (counts == 1).any():
         raise InputError("the target is a closed surface (it has no boundary edge: a solid?): the mattress "
                          "follows an open sheet, so give the one face it should follow", closed=True)

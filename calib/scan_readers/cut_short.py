@@ -36,7 +36,7 @@ import numpy as np
 from airmat.errors import InputError
 from calib.scan_readers.ply_header import check_ply_complete
 
-__all__ = ["check_complete"]
+__all__ = ["check_complete", "complete_binary_stl"]
 
 #: how much of a file's end is read to find its last record (bytes)
 TAIL = 4096
@@ -116,13 +116,20 @@ def _check_off(path: Path) -> None:
     _ends_inside_a_line(path, "OFF")
 
 
+def complete_binary_stl(path: Path) -> bool:
+    """Whether ``path`` is a binary STL whose size is exactly what its triangle count takes."""
+    with open(path, "rb") as fh:
+        head = fh.read(84)
+    return len(head) == 84 and path.stat().st_size == 84 + 50 * int(np.frombuffer(head[80:84], "<u4")[0])
+
+
 def _check_stl(path: Path) -> None:
+    if complete_binary_stl(path):
+        return
     size = path.stat().st_size
     with open(path, "rb") as fh:
         head = fh.read(512)
     declared = int(np.frombuffer(head[80:84], "<u4")[0]) if len(head) >= 84 else None
-    if declared is not None and size == 84 + 50 * declared:
-        return  # a complete binary STL
     if head.lstrip().startswith(b"solid") and b"facet" in head:
         last = _tail(path).rstrip().rsplit(b"\n", 1)[-1].strip()
         if not last.startswith(b"endsolid"):

@@ -24,6 +24,7 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     """Vertices (and faces) of a trimesh-readable file; a scene's parts are placed by their node poses."""
     suffix = path.suffix.lower()
     float32 = suffix in (".stl", ".glb", ".gltf")  # these formats store 32-bit floats only
+    stream = None
     if suffix == ".obj":
         check_obj_indices(path)
     if suffix == ".ply":
@@ -33,10 +34,8 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
         float32 = ply_vertex_float32(path)
         fields = ply_xyz_fields(path)
         if fields != ("x", "y", "z"):     # X Y Z: trimesh reads lower-case names only
-            geometry = _load(path, suffix, ply_renamed_xyz(path, fields))
-            vertices, faces = _vertices_faces(geometry, path)
-            return RawCloud(vertices=vertices, faces=faces, float32=float32)
-    geometry = _load(path, suffix)
+            stream = ply_renamed_xyz(path, fields)
+    geometry = _load(path, suffix, stream)
     vertices, faces = _vertices_faces(geometry, path)
     return RawCloud(vertices=vertices, faces=faces, float32=float32)
 

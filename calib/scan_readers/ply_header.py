@@ -16,19 +16,17 @@ __all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32", "ply_vert
            "ply_renamed_xyz"]
 
 
-def ply_vertex_names(path: Path) -> list[str]:
-    """The names of a PLY file's ``vertex`` properties, in order (list properties included)."""
+def _vertex_properties(path: Path) -> list[list[str]]:
+    """The words after ``property`` of each of a PLY file's ``vertex`` properties (type words, then the name)."""
     with open(path, "rb") as fh:
         head = fh.read(1 << 16)
-    end = head.find(b"end_header")
-    names, in_vertex = [], False
-    for line in head[:max(end, 0)].decode("ascii", errors="replace").split("\n"):
-        words = line.split()
-        if words[:1] == ["element"]:
-            in_vertex = words[1:2] == ["vertex"]
-        elif in_vertex and words[:1] == ["property"] and len(words) >= 3:
-            names.append(words[-1])
-    return names
+    lines = head[:max(head.find(b"end_header"), 0)].decode("ascii", errors="replace").split("\n")
+    return next((props for name, _, props in ply_elements(lines, path) if name == "vertex"), [])
+
+
+def ply_vertex_names(path: Path) -> list[str]:
+    """The names of a PLY file's ``vertex`` properties, in order (list properties included)."""
+    return [p[-1] for p in _vertex_properties(path)]
 
 
 def ply_xyz_fields(path: Path) -> tuple[str, str, str]:
@@ -53,18 +51,10 @@ def ply_renamed_xyz(path: Path, fields) -> io.BytesIO:
 
 
 def ply_vertex_float32(path: Path) -> bool:
-    """Whether a PLY file's vertex ``x`` property is a 32-bit float."""
-    with open(path, "rb") as fh:
-        head = fh.read(1 << 16)
-    end = head.find(b"end_header")
-    in_vertex = False
-    for line in head[:end].decode("ascii", errors="replace").split("\n"):
-        words = line.split()
-        if words[:1] == ["element"]:
-            in_vertex = words[1:2] == ["vertex"]
-        elif in_vertex and words[:1] == ["property"] and words[-1:] in (["x"], ["X"]):
-            return words[1] in ("float", "float32")
-    return False
+    """Whether a PLY file's vertex ``x`` (or ``X``) property is a 32-bit float."""
+    props = _vertex_properties(path)
+    fields = xyz_names([p[-1] for p in props])
+    return fields is not None and next(p[0] for p in props if p[-1] == fields[0]) in ("float", "float32")
 
 
 def check_ply_complete(path: Path) -> bool:
@@ -93,7 +83,7 @@ def check_ply_complete(path: Path) -> bool:
         if not any(line.split()[:2] == ["format", "ascii"] for line in header):
             little = any(line.split()[:2] == ["format", "binary_little_endian"] for line in header)
             _check_binary_size(elements, fh, body_start, little, path)
-            _check_byte_order(header, fh, body_start, little, path)
+            _check_byte_order(elements, fh, body_start, little, path)
             return False
         fh.seek(body_start)
         body = fh.read()
@@ -135,7 +125,7 @@ def _row_values(props, tokens) -> int | None:
     an integer."""
     i = 0
     for prop in props:
-        if prop.startswith("list"):
+        if prop[0] == "list":
             if i >= len(tokens) or not tokens[i].isdigit():
                 return None
             i += 1 + int(tokens[i])
@@ -160,11 +150,10 @@ def _check_binary_size(elements, fh, body_start: int, little: bool, path) -> Non
     fh.seek(0, 2)
     body = fh.tell() - body_start
     least, fixed, uniform = 0, True, None
-    for _, count, props in elements:
-        words = [prop.split() for prop in props]
-        # "list <count type> <item type>": its count's size; a scalar: its size
-        sizes = [_SIZES.get(w[1] if w[0] == "list" and len(w) > 2 else w[0]) for w in words if w]
-        if None in sizes or len(sizes) != len(props):
+    for _, count, words in elements:
+        # "list <count type> <item type> <name>": its count's size; a scalar: its size
+        sizes = [_SIZES.get(w[1] if w[0] == "list" and len(w) > 3 else w[0]) for w in words if len(w) > 1]
+        if None in sizes or len(sizes) != len(words):
             return  # a type this check does not know: leave the file to the reader
         row = sum(sizes)
         lists = [w[0] == "list" for w in words]
@@ -203,7 +192,7 @@ def _coordinate_share(xyz: np.ndarray) -> float:
     return float((np.isfinite(xyz) & ((size == 0) | ((size > 1e-9) & (size < 1e7)))).mean())
 
 
-def _check_byte_order(header, fh, body_start: int, little: bool, path) -> None:
+def _check_byte_order(elements, fh, body_start: int, little: bool, path) -> None:
     """Raise InputError when a binary body's vertices read as coordinates only in the other byte order.
 
     A file written little-endian under a ``binary_big_endian`` header (or the
@@ -216,16 +205,10 @@ def _check_byte_order(header, fh, body_start: int, little: bool, path) -> None:
     do in the other order (a scan padded with NaN rows fails both, and is left
     to the reader).
     """
-    props, first, count = [], None, 0
-    for line in header:
-        words = line.split()
-        if words[:1] == ["element"]:
-            if first is not None:
-                break
-            first, count = words[1:2], int(words[2])   # ply_elements checked the line
-        elif words[:1] == ["property"] and first is not None:
-            props.append(words[1:])
-    if first != ["vertex"] or any(len(p) != 2 or p[0] not in PLY_TYPES for p in props):
+    if not elements or elements[0][0] != "vertex":
+        return
+    _, count, props = elements[0]
+    if any(len(p) != 2 or p[0] not in PLY_TYPES for p in props):
         return
     fields = xyz_names([p[1] for p in props])
     if fields is None:
@@ -253,7 +236,8 @@ def _check_byte_order(header, fh, body_start: int, little: bool, path) -> None:
 
 
 def ply_elements(header, path):
-    """[(name, count, [property type strings])] from PLY header lines."""
+    """[(name, count, [property words])] from PLY header lines: each property's words after
+    ``property``, its type words then its name (``["float", "x"]``, ``["list", "uchar", "int", "vertex_indices"]``)."""
     elements = []
     for line in header:
         words = line.split()
@@ -262,5 +246,5 @@ def ply_elements(header, path):
                 raise InputError(f"malformed PLY header line {line.strip()!r}", path=path)
             elements.append((words[1], int(words[2]), []))
         elif words[:1] == ["property"] and elements:
-            elements[-1][2].append(" ".join(words[1:-1]))
+            elements[-1][2].append(words[1:])
     return elements

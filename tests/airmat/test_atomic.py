@@ -197,17 +197,22 @@ def test_ctrl_c_inside_the_swap_leaves_old_or_new(tmp_path, monkeypatch, exchang
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def _sigint_after(monkeypatch, name):
+    """Make ``tempfile.<name>`` deliver SIGINT to this process the instant it has made its file or folder."""
+    real = getattr(atomic.tempfile, name)
+
+    def then_sigint(*args, **kwargs):
+        made = real(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)
+        return made
+    monkeypatch.setattr(atomic.tempfile, name, then_sigint)
+
+
 def test_ctrl_c_right_after_the_staging_folder_is_made_leaves_nothing(tmp_path, monkeypatch):
     """SIGINT the instant ``mkdtemp`` returns, before the folder's removal was
     registered: without deferral the folder stayed behind (CI saw it once when
     the kill test interrupted a run as soon as its staging folder appeared)."""
-    real_mkdtemp = atomic.tempfile.mkdtemp
-
-    def mkdtemp_then_sigint(*args, **kwargs):
-        path = real_mkdtemp(*args, **kwargs)
-        os.kill(os.getpid(), signal.SIGINT)
-        return path
-    monkeypatch.setattr(atomic.tempfile, "mkdtemp", mkdtemp_then_sigint)
+    _sigint_after(monkeypatch, "mkdtemp")
     out = tmp_path / "out"
     _old(out)
     body = []
@@ -221,13 +226,7 @@ def test_ctrl_c_right_after_the_staging_folder_is_made_leaves_nothing(tmp_path, 
 
 
 def test_ctrl_c_right_after_an_atomic_writes_temporary_file_is_made_leaves_nothing(tmp_path, monkeypatch):
-    real_mkstemp = atomic.tempfile.mkstemp
-
-    def mkstemp_then_sigint(*args, **kwargs):
-        made = real_mkstemp(*args, **kwargs)
-        os.kill(os.getpid(), signal.SIGINT)
-        return made
-    monkeypatch.setattr(atomic.tempfile, "mkstemp", mkstemp_then_sigint)
+    _sigint_after(monkeypatch, "mkstemp")
     target = tmp_path / "a.json"
     target.write_text("old")
     with pytest.raises(KeyboardInterrupt):
