@@ -4,11 +4,18 @@ Usage::
 
     .venv/bin/python bench/bench_design.py                      # all presets, 20 mm mesh
     .venv/bin/python bench/bench_design.py --presets vault1 --spacing-mm 40
+    .venv/bin/python bench/bench_design.py --repeats 3          # medians of 3 runs and the spread
+    .venv/bin/python bench/bench_design.py --repeats 3 --bvh-threads 1 auto   # the closest-point threads
 
 Prints a Markdown table: seconds per stage (preset build, the surface
 side's triangulate / relax / curvature / report, transfer to Ω, stripes,
 string lengths, export of all files) and the totals, with the Table-1
-figures and string counts. Targets on the 2-core reference machine: small
+figures and string counts. With ``--repeats N`` each preset is designed N
+times in turn (all presets once, then again) and every time is the median,
+with the totals' range beside it. ``--bvh-threads 1 auto`` designs every
+preset with the closest-point queries on one thread and on the cores idle
+when the query's projector is made (design.closest_point, the default),
+one row each, interleaved in every round. Targets on the 2-core reference machine: small
 presets (830 × 740 mm) < 10 s, large (2600 × 1600 mm) < 60 s in total.
 """
 
@@ -20,6 +27,9 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from unittest import mock
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -31,8 +41,13 @@ STAGES = ("preset", "triangulate", "relax", "curvature", "report", "transfer", "
 LIMITS = {"small": 10.0, "large": 60.0}
 
 
-def bench_one(name: str, spacing: float, seed: int = 0) -> dict:
-    """Design one preset end to end; returns the timings (s), the totals and a few results."""
+def bench_one(name: str, spacing: float, seed: int = 0, threads: str = "auto") -> dict:
+    """Design one preset end to end; returns the timings (s), the totals and a few results.
+
+    ``threads``: "auto" (the default of design.closest_point) or a number of closest-point threads."""
+    if threads != "auto":
+        with mock.patch("design.closest_point.idle_cores", lambda: int(threads)):
+            return {**bench_one(name, spacing, seed), "threads": threads}
     t = time.perf_counter()
     target, mattress = preset(name)
     times = {"preset": time.perf_counter() - t}
@@ -47,23 +62,34 @@ def bench_one(name: str, spacing: float, seed: int = 0) -> dict:
     return {"name": name, "size": size, "times": times, "total": sum(times.values()),
             "n_vertices": len(result.approx.uv), "converged": result.approx.relax.converged,
             "strings": len(result.pattern.strings), "sigma": r.sigma, "kappa1": r.kappa1, "kappa2": r.kappa2,
-            "constructible": r.constructible}
+            "constructible": r.constructible, "threads": threads}
 
 
-def markdown(rows: list[dict]) -> str:
+def median_row(repeats: list[dict]) -> dict:
+    """One preset's runs as one row: the median of every stage and of the total, and all totals."""
+    row = dict(repeats[0])
+    row["times"] = {k: float(np.median([r["times"].get(k, 0.0) for r in repeats])) for k in STAGES}
+    row["totals"] = [r["total"] for r in repeats]
+    row["total"] = float(np.median(row["totals"]))
+    return row
+
+
+def markdown(rows: list[dict], threads_column: bool = False) -> str:
     """The results as a Markdown table."""
-    head = ["preset", "vertices", *STAGES, "total (s)", "target", "strings", "σ min/avg/max",
-            "|κ1| avg/max", "|κ2| avg/max", "relax conv."]
+    head = ["preset", "vertices", *STAGES, "total (s)", "total min – max (s)", "target", "strings", "σ min/avg/max",
+            "|κ1| avg/max", "|κ2| avg/max", "relax conv."] + (["BVH threads"] if threads_column else [])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         t, s = r["times"], r["sigma"]
         ok = "ok" if r["total"] < LIMITS[r["size"]] else "SLOW"
         lines.append("| " + " | ".join([
             r["name"], str(r["n_vertices"]), *(f"{t.get(k, 0.0):.2f}" for k in STAGES), f"{r['total']:.1f}",
+            f"{min(r['totals']):.1f} – {max(r['totals']):.1f}",
             f"< {LIMITS[r['size']]:.0f} s {ok}", str(r["strings"]),
             f"{s['min']:.4f} / {s['avg']:.4f} / {s['max']:.4f}",
             f"{r['kappa1']['avg']:.2f} / {r['kappa1']['max']:.2f}",
-            f"{r['kappa2']['avg']:.2f} / {r['kappa2']['max']:.2f}", str(r["converged"])]) + " |")
+            f"{r['kappa2']['avg']:.2f} / {r['kappa2']['max']:.2f}", str(r["converged"])]
+            + ([r["threads"]] if threads_column else [])) + " |")
     return "\n".join(lines)
 
 
@@ -71,10 +97,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--presets", nargs="+", default=list(PRESETS), choices=PRESETS)
     parser.add_argument("--spacing-mm", type=float, default=20.0, help="Ω mesh spacing (default 20 mm)")
+    parser.add_argument("--repeats", type=int, default=1, help="runs of every preset (medians reported)")
+    parser.add_argument("--bvh-threads", nargs="+", default=None, metavar="N|auto",
+                        help="closest-point threads, one row each (a number, or auto: the default)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    rows = [bench_one(name, args.spacing_mm * 1e-3) for name in args.presets]
-    print(markdown(rows))
+    cases = [(name, th) for name in args.presets for th in (args.bvh_threads or ["auto"])]
+    runs = [[bench_one(name, args.spacing_mm * 1e-3, threads=th) for name, th in cases]
+            for _ in range(max(1, args.repeats))]
+    rows = [median_row([run[i] for run in runs]) for i in range(len(cases))]
+    print(markdown(rows, threads_column=args.bvh_threads is not None))
     return 0
 
 

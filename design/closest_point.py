@@ -23,6 +23,7 @@ import numpy as np
 from trimesh.triangles import closest_point as closest_point_on_triangles
 from trimesh.triangles import points_to_barycentric
 
+from airmat.cores import idle_cores
 from airmat.geometry.topology import boundary_face_flags
 
 __all__ = ["ClosestPoints", "MeshProjector"]
@@ -70,9 +71,11 @@ class MeshProjector:
         Mesh vertices (m).
     faces : ndarray of shape (m, 3)
         Triangles.
-    threads : int, default 1
-        Threads per query (0: all cores). One thread: a relaxation query is only a few
-        thousand points, and on a busy 2-core machine more threads were 2-3× slower.
+    threads : int, optional
+        Threads per query (0: all cores). Default: the cores idle when the projector is
+        made (:func:`airmat.cores.idle_cores`): on an idle 2-core machine two threads take
+        the dome's relaxation from 5.2 to 3.9 s, but on a busy one more threads were 2-3×
+        slower. The answers do not depend on it.
 
     Examples
     --------
@@ -89,7 +92,7 @@ class MeshProjector:
     [[2.0, -0.5, 0.0]]
     """
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, threads: int = 1):
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, threads: int | None = None):
         import open3d as o3d
 
         vertices = np.asarray(vertices, dtype=float)
@@ -100,7 +103,7 @@ class MeshProjector:
         self._scene.add_triangles(o3d.core.Tensor((vertices - self._origin).astype(np.float32)),
                                   o3d.core.Tensor(self._faces.astype(np.uint32)))
         self._o3d = o3d
-        self._threads = int(threads)
+        self._threads = idle_cores() if threads is None else int(threads)
         cross = np.cross(vertices[self._faces[:, 1]] - vertices[self._faces[:, 0]],
                          vertices[self._faces[:, 2]] - vertices[self._faces[:, 0]])
         self._unit_normal = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)

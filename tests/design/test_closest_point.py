@@ -92,3 +92,14 @@ def test_the_rim_test_of_the_faces_touching_the_rim_is_the_test_of_every_point(s
     monkeypatch.setattr(square, "_rim_face", np.ones_like(square._rim_face))
     every = square._on_rim(tri, near.face, near.points)
     assert 0 < every.sum() < len(p) and np.array_equal(near.on_rim, every)
+
+
+def test_the_answers_do_not_depend_on_the_threads():
+    """The default takes the idle cores; one thread or two give the same bits."""
+    t = cylinder(0.3, length=0.6, arc=0.6, spacing=0.005)
+    rng = np.random.default_rng(3)
+    p = t.vertices[rng.integers(0, len(t.vertices), 3000)] + rng.normal(0, 0.02, (3000, 3))
+    one, two = (MeshProjector(t.vertices, t.faces, threads=k).closest_extended(p) for k in (1, 2))
+    for name in ("points", "face", "normal", "distance", "on_rim"):
+        assert np.array_equal(getattr(one, name), getattr(two, name)), name
+    assert MeshProjector(t.vertices, t.faces)._threads >= 1
