@@ -1,13 +1,14 @@
 """How many CPU cores a multithreaded call may use: the ones no other process keeps busy now.
 
 A library call that splits its work over threads (open3d's closest-point
-query) is faster with every core on an idle machine, but several times
-slower when the cores are already busy (the threads wait on each other), as
-when the tests or the gallery run one process per core. So the caller asks,
-when it starts, how many cores the other processes leave idle: Linux's count
-of runnable threads (``/proc/loadavg``) less this process's own, the fewest
-of a few quick readings (a passing spike is not a busy core). Elsewhere the
-answer is one core. Threads never change a result here, only its time.
+query) is faster with every core on an idle machine but slower when the
+cores are already busy (the threads wait on each other), as when the tests
+or the gallery run one process per core. So the caller asks, when it starts
+and now and then while it runs, how many cores the other processes leave
+idle: Linux's count of runnable threads (``/proc/loadavg``) less this
+process's own, the fewest of a few quick readings (a passing spike is not a
+busy core). Elsewhere the answer is one core. Threads never change a
+result here, only its time.
 """
 
 from __future__ import annotations

@@ -17,13 +17,14 @@ overhangs S only along the rim face's normal, not back onto the rim).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 from trimesh.triangles import closest_point as closest_point_on_triangles
 from trimesh.triangles import points_to_barycentric
 
-from airmat.cores import idle_cores
+from airmat.cores import busy_elsewhere, idle_cores
 from airmat.geometry.topology import boundary_face_flags
 
 __all__ = ["ClosestPoints", "MeshProjector"]
@@ -34,6 +35,10 @@ __all__ = ["ClosestPoints", "MeshProjector"]
 #: foot can sit that far beside the rim vertex; and flagging a point inside the rim costs nothing
 #: (its foot on its own triangle is its projection onto that triangle's plane).
 RIM_TOL = 0.05
+
+#: seconds between two looks at the idle cores by a projector that chose its threads itself: a
+#: process that starts (or ends) beside a long relaxation changes them while the projector is in use
+RECHECK_SECONDS = 1.0
 
 
 @dataclass(frozen=True)
@@ -72,10 +77,12 @@ class MeshProjector:
     faces : ndarray of shape (m, 3)
         Triangles.
     threads : int, optional
-        Threads per query (0: all cores). Default: the cores idle when the projector is
-        made (:func:`airmat.cores.idle_cores`): on an idle 2-core machine two threads take
-        the dome's relaxation from 5.2 to 3.9 s, but on a busy one more threads were 2-3×
-        slower. The answers do not depend on it.
+        Threads per query (0: all cores). Default: the cores other processes leave idle
+        (:func:`airmat.cores.idle_cores`), looked at again every ``RECHECK_SECONDS`` while
+        the projector is used: on an idle 2-core machine two threads take the dome's
+        relaxation from 5.2 to 3.9 s, but on a busy one they are slower (two processes
+        relaxing it side by side: 6.9-7.2 s each with two threads, 6.0 s with one). The
+        answers do not depend on it.
 
     Examples
     --------
@@ -103,7 +110,9 @@ class MeshProjector:
         self._scene.add_triangles(o3d.core.Tensor((vertices - self._origin).astype(np.float32)),
                                   o3d.core.Tensor(self._faces.astype(np.uint32)))
         self._o3d = o3d
-        self._threads = idle_cores() if threads is None else int(threads)
+        self._auto = threads is None
+        self._threads = idle_cores() if self._auto else int(threads)
+        self._threads_checked = time.monotonic()
         cross = np.cross(vertices[self._faces[:, 1]] - vertices[self._faces[:, 0]],
                          vertices[self._faces[:, 2]] - vertices[self._faces[:, 0]])
         self._unit_normal = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
@@ -115,11 +124,21 @@ class MeshProjector:
         self._altitude = np.linalg.norm(cross, axis=1)[:, None] / np.maximum(side, 1e-300)
         self._rim_tol = RIM_TOL * float(side.mean())
 
+    @property
+    def threads(self) -> int:
+        """Threads of the next query: the ones given, or the idle cores (one quick reading each
+        ``RECHECK_SECONDS``; one core when the system does not say)."""
+        if self._auto and time.monotonic() - self._threads_checked >= RECHECK_SECONDS:
+            busy = busy_elsewhere(samples=1)
+            self._threads = 1 if busy is None else idle_cores(busy=busy)
+            self._threads_checked = time.monotonic()
+        return self._threads
+
     def closest(self, points: np.ndarray) -> ClosestPoints:
         """Closest points on the mesh to ``points`` (k, 3) (m)."""
         points = np.asarray(points, dtype=float)
         q = self._o3d.core.Tensor((points - self._origin).astype(np.float32))
-        ans = self._scene.compute_closest_points(q, nthreads=self._threads)
+        ans = self._scene.compute_closest_points(q, nthreads=self.threads)
         face = ans["primitive_ids"].numpy().astype(np.int64)
         bad = (face < 0) | (face >= len(self._faces))   # open3d's invalid id (NaN queries)
         face[bad] = 0
@@ -189,5 +208,5 @@ class MeshProjector:
         """
         rays = np.concatenate([np.asarray(origins, float) - self._origin,
                                np.asarray(directions, float)], axis=1).astype(np.float32)
-        ans = self._scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=self._threads)
+        ans = self._scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=self.threads)
         return ans["t_hit"].numpy().astype(float)

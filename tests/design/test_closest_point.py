@@ -103,3 +103,30 @@ def test_the_answers_do_not_depend_on_the_threads():
     for name in ("points", "face", "normal", "distance", "on_rim"):
         assert np.array_equal(getattr(one, name), getattr(two, name)), name
     assert MeshProjector(t.vertices, t.faces)._threads >= 1
+
+
+def test_a_projector_that_chose_its_threads_looks_again_while_it_is_used(monkeypatch):
+    import airmat.cores
+    import design.closest_point as cp
+
+    clock, busy = [100.0], [0]
+    monkeypatch.setattr(cp.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(airmat.cores, "usable_cores", lambda: 2)
+    for module in (airmat.cores, cp):
+        monkeypatch.setattr(module, "busy_elsewhere", lambda samples=5: busy[0])
+    t = cylinder(0.3, length=0.3, arc=0.3, spacing=0.02)
+    auto, fixed = MeshProjector(t.vertices, t.faces), MeshProjector(t.vertices, t.faces, threads=2)
+    assert auto.threads == 2 and fixed.threads == 2
+    busy[0] = 1                                             # another process starts
+    clock[0] += 0.5 * cp.RECHECK_SECONDS
+    assert auto.threads == 2                                # not looked at yet
+    clock[0] += cp.RECHECK_SECONDS
+    assert auto.threads == 1 and fixed.threads == 2         # the given number stays
+    p = t.vertices[:50] + 0.01
+    assert np.array_equal(auto.closest(p).points, fixed.closest(p).points)
+    busy[0] = 0
+    clock[0] += cp.RECHECK_SECONDS
+    assert auto.threads == 2
+    busy[0] = None                                          # the system does not say
+    clock[0] += cp.RECHECK_SECONDS
+    assert auto.threads == 1
