@@ -46,7 +46,7 @@ def bench_one(name: str, spacing: float, seed: int = 0, threads: str = "auto") -
 
     ``threads``: "auto" (the default of design.closest_point) or a number of closest-point threads."""
     if threads != "auto":
-        with mock.patch("design.closest_point.idle_cores", lambda: int(threads)):
+        with mock.patch("design.closest_point.idle_cores", lambda *a, **k: int(threads)):
             return {**bench_one(name, spacing, seed), "threads": threads}
     t = time.perf_counter()
     target, mattress = preset(name)
