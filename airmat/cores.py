@@ -49,7 +49,7 @@ def busy_elsewhere(path: str = "/proc/loadavg", samples: int = SAMPLES) -> int |
     return max(0, min(counts) - 1)
 
 
-def idle_cores(busy: int | None = None, cores: int | None = None) -> int:
+def idle_cores(busy: int | None = None, cores: int | None = None, samples: int = SAMPLES) -> int:
     """Cores the other processes leave idle: the usable cores less the busy ones, between 1 and all.
 
     Parameters
@@ -59,6 +59,8 @@ def idle_cores(busy: int | None = None, cores: int | None = None) -> int:
         where the system does not say: one thread is never slower than many on a busy machine).
     cores : int, optional
         Usable cores; default :func:`usable_cores`.
+    samples : int, default SAMPLES
+        Readings of :func:`busy_elsewhere` when ``busy`` is not given.
 
     Returns
     -------
@@ -72,7 +74,7 @@ def idle_cores(busy: int | None = None, cores: int | None = None) -> int:
     """
     cores = usable_cores() if cores is None else int(cores)
     if busy is None:
-        busy = busy_elsewhere()
+        busy = busy_elsewhere(samples=samples)
         if busy is None:
             return 1
     return int(min(cores, max(1, cores - int(busy))))

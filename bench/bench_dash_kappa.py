@@ -34,7 +34,6 @@ sys.path.insert(0, str(HERE))
 from designed_preset import designed_preset  # noqa: E402
 from check.compare import realized_curvature  # noqa: E402
 from check.inflation_check import check  # noqa: E402
-from check.refinement import refine  # noqa: E402
 
 
 def _stats(q) -> str:
@@ -56,9 +55,7 @@ def main(argv=None) -> int:
           "| circle: median | p10 – p90 | within 10 % |")
     print("|---|---|---:|---:|---|---:|---:|---|---:|")
     for name in args.presets.split(","):
-        d = designed_preset(name)
-        if args.refine:
-            d = refine(d, resolution=args.resolution_mm * 1e-3).design
+        d = designed_preset(name, refine_at=args.resolution_mm * 1e-3 if args.refine else None)
         c = check(d, resolution=args.resolution_mm * 1e-3, envelope=False, calibrated_map=args.calibrated_map)
         run = c.runs["median"]
         strings = d.pattern.strings

@@ -13,9 +13,9 @@ string lengths, export of all files) and the totals, with the Table-1
 figures and string counts. With ``--repeats N`` each preset is designed N
 times in turn (all presets once, then again) and every time is the median,
 with the totals' range beside it. ``--bvh-threads 1 auto`` designs every
-preset with the closest-point queries on one thread and on the cores idle
-when the query's projector is made (design.closest_point, the default),
-one row each, interleaved in every round. Targets on the 2-core reference machine: small
+preset with the closest-point queries on one thread and on the cores other
+processes leave idle (design.closest_point, the default), one row each,
+interleaved in every round. Targets on the 2-core reference machine: small
 presets (830 × 740 mm) < 10 s, large (2600 × 1600 mm) < 60 s in total.
 """
 

@@ -32,7 +32,6 @@ sys.path.insert(0, str(HERE))
 
 from designed_preset import designed_preset  # noqa: E402
 from check.inflation_check import check  # noqa: E402
-from check.refinement import refine  # noqa: E402
 
 
 def split(per_vertex, mask) -> str:
@@ -64,9 +63,7 @@ def main(argv=None) -> int:
           "from a string: share of Ω | its RMS mm (share) | RMS mm by thirds of Ω (v high → low; u left → right) |")
     print("|---|---|---|---|---:|---|---|---:|---|---|")
     for name in args.presets.split(","):
-        d = designed_preset(name)
-        if args.refine:
-            d = refine(d, resolution=args.resolution_mm * 1e-3).design
+        d = designed_preset(name, refine_at=args.resolution_mm * 1e-3 if args.refine else None)
         c = check(d, resolution=args.resolution_mm * 1e-3, envelope=False)
         dev = c.runs["median"].deviation
         uv, w, h = d.approx.uv, d.mattress.width, d.mattress.height

@@ -24,7 +24,7 @@ import numpy as np
 from trimesh.triangles import closest_point as closest_point_on_triangles
 from trimesh.triangles import points_to_barycentric
 
-from airmat.cores import busy_elsewhere, idle_cores
+from airmat.cores import idle_cores
 from airmat.geometry.topology import boundary_face_flags
 
 __all__ = ["ClosestPoints", "MeshProjector"]
@@ -129,8 +129,7 @@ class MeshProjector:
         """Threads of the next query: the ones given, or the idle cores (one quick reading each
         ``RECHECK_SECONDS``; one core when the system does not say)."""
         if self._auto and time.monotonic() - self._threads_checked >= RECHECK_SECONDS:
-            busy = busy_elsewhere(samples=1)
-            self._threads = 1 if busy is None else idle_cores(busy=busy)
+            self._threads = idle_cores(samples=1)
             self._threads_checked = time.monotonic()
         return self._threads
 
