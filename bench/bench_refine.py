@@ -37,6 +37,10 @@ one CHOLMOD call (the default), in a last column.
 after every well-predicted step (0, the rule before) and held after an iteration that had to
 grow it (1, the default; ``check.gauss_newton.HOLD_AFTER_RETRY``), in a last column.
 
+``--trial-rule shift:4 backtrack:2``: one row (or spread row) each with the Newton method of the
+refinement's equilibria refactorizing a refused step with its shift ×4 (the check's rule) or halving
+it with the shift ×2 (``check.trial_equilibrium.TRIAL_REFUSED_STEP``), in a last column.
+
 ``--draws K`` measures how much the outcome depends on the Gauss–Newton path: K
 refinements of the same design, the first at its own lengths and the others with every
 open-loop real length moved by a uniform draw in ±``--jitter-um`` (5 µm by default, the
@@ -88,6 +92,9 @@ def main(argv=None) -> int:
     ap.add_argument("--damping-hold", type=int, nargs="+", choices=(0, 1), default=None,
                     help="1: the damping is held after an iteration that had to grow it (the default); "
                          "0: shrunk after every well-predicted step (the rule before); one row each, in a last column")
+    ap.add_argument("--trial-rule", nargs="+", type=_trial_rule, default=None,
+                    help="RULE:MU_UP of the refinement's equilibria (shift:4, the check's rule; backtrack:2); "
+                         "one row each, in a last column")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
     if args.draws > 1:
@@ -96,20 +103,21 @@ def main(argv=None) -> int:
           "| refined RMS mm (% diag) | refined, to Ŝ's surface mm (% diag) | max mm before / after | iterations "
           "| converged | refine (s) | one inflation (s) | verification (s) | ratio | dropped / flagged "
           "| Ŝ moved (mm RMS) |" + (" Jacobian solve |" if args.jacobian_solve else "")
-          + (" damping held |" if args.damping_hold else ""))
+          + (" damping held |" if args.damping_hold else "") + (" trial refused step |" if args.trial_rule else ""))
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-          + ("---|" if args.jacobian_solve else "") + ("---|" if args.damping_hold else ""))
+          + ("---|" if args.jacobian_solve else "") + ("---|" if args.damping_hold else "")
+          + ("---|" if args.trial_rule else ""))
     for name in names:
         design = designed_preset(name)
         m = design.mattress
         surface = MeshProjector(design.approx.xyz, design.approx.faces)
         diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
-        runs = [(c, n, a, k, j, h) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
+        runs = [(c, n, a, k, j, h, t) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
                 for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"])
-                for h in (args.damping_hold or [None]) if c > 0 or n == 0]
-        for coarsest, n, alpha, rounds, jac, hold in runs:
+                for h in (args.damping_hold or [None]) for t in (args.trial_rule or [None]) if c > 0 or n == 0]
+        for coarsest, n, alpha, rounds, jac, hold, trial in runs:
             kw = _options(alpha, rounds)
-            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold):
+            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold), _trial_refused(trial):
                 r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
                            coarsest=coarsest * MM, corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
@@ -126,8 +134,24 @@ def main(argv=None) -> int:
                   f"| {r.inflation_seconds:.1f} | {r.verification_seconds:.1f} "
                   f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |"
                   + (f" {jac} |" if args.jacobian_solve else "")
-                  + (f" {'yes' if hold else 'no'} |" if args.damping_hold else ""), flush=True)
+                  + (f" {'yes' if hold else 'no'} |" if args.damping_hold else "")
+                  + (f" {trial[0]} ×{trial[1]:g} |" if args.trial_rule else ""), flush=True)
     return 0
+
+
+def _trial_rule(text: str) -> tuple:
+    """``"backtrack:2"`` -> ("backtrack", 2.0)."""
+    rule, _, up = text.partition(":")
+    if rule not in ("shift", "backtrack") or not up:
+        raise argparse.ArgumentTypeError(f"RULE:MU_UP with RULE shift or backtrack, got {text!r}")
+    return rule, float(up)
+
+
+def _trial_refused(rule):
+    """check.trial_equilibrium.TRIAL_REFUSED_STEP set to ``rule`` (None: left as it is)."""
+    import check.trial_equilibrium as te
+
+    return contextlib.nullcontext() if rule is None else mock.patch.object(te, "TRIAL_REFUSED_STEP", rule)
 
 
 def _per_column():
@@ -168,14 +192,16 @@ def spread(names, args) -> int:
     """One row per preset and setting: the refined deviation over ``args.draws`` jittered refinements."""
     print(f"| preset | alpha | re-param rounds | draws (±{args.jitter_um:g} µm) | refined % diag: median | min – max "
           "| ≤ 1 % | converged | refined % diag, each draw | refine / its first inflation, each draw |"
-          + (" damping held |" if args.damping_hold else ""))
-    print("|---|---|---|---|---|---|---|---|---|---|" + ("---|" if args.damping_hold else ""))
+          + (" damping held |" if args.damping_hold else "") + (" trial refused step |" if args.trial_rule else ""))
+    print("|---|---|---|---|---|---|---|---|---|---|" + ("---|" if args.damping_hold else "")
+          + ("---|" if args.trial_rule else ""))
     for name in names:
         design = designed_preset(name)
         for alpha in args.alpha:
-            for rounds, hold in [(k, h) for k in args.reparametrize for h in (args.damping_hold or [None])]:
+            for rounds, hold, trial in [(k, h, t) for k in args.reparametrize for h in (args.damping_hold or [None])
+                                        for t in (args.trial_rule or [None])]:
                 kw = _options(alpha, rounds)
-                with _damping_hold(hold):
+                with _damping_hold(hold), _trial_refused(trial):
                     rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
                                  max_iter=args.max_iter, **kw) for k in range(args.draws)]
                 pct = np.array([r.deviation_after.rms_pct_diag for r in rs])
@@ -183,7 +209,8 @@ def spread(names, args) -> int:
                       f"| {pct.min():.2f} – {pct.max():.2f} | {int(np.sum(pct <= 1.0))} / {len(pct)} "
                       f"| {sum(r.converged for r in rs)} / {len(rs)} | {' '.join(f'{p:.2f}' for p in pct)} "
                       f"| {' '.join(f'{r.seconds / r.inflation_seconds:.1f}×' for r in rs)} |"
-                      + (f" {'yes' if hold else 'no'} |" if args.damping_hold else ""), flush=True)
+                      + (f" {'yes' if hold else 'no'} |" if args.damping_hold else "")
+                      + (f" {trial[0]} ×{trial[1]:g} |" if args.trial_rule else ""), flush=True)
     return 0
 
 

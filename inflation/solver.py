@@ -47,6 +47,17 @@ MAX_STRAIN = 0.5
 #: shift only crawls. The small presets at 20 mm are within their timing noise for 3, 10, 30.
 MU_DOWN = 10.0
 
+#: the shift is multiplied by this after a step its model predicted poorly (rho < 0.25) and after a
+#: refused step (no decrease)
+MU_UP = 4.0
+
+#: what a refused step does: ``"shift"`` (the rule in use) raises the shift by ``MU_UP`` and factorizes
+#: again; ``"backtrack"`` halves the same step (no new factorization) and leaves the raised shift to the
+#: next iteration. An experiment, not the default: ``bench/bench_newton_rule.py`` runs both side by side
+#: (README, Inflation): with ``MU_UP = 2`` every preset's inflation lands on the same equilibrium 15-36 %
+#: sooner, but the refinement's Gauss-Newton path then changes, and so would every number measured.
+REFUSED_STEP = "shift"
+
 
 @dataclass(frozen=True)
 class SolveResult:
@@ -171,16 +182,21 @@ def _check_sane(model: Model, x: np.ndarray, e: float, it: int) -> None:
 class _TrustRegion:
     """The Levenberg–Marquardt shift ``mu`` and one accepted step of it."""
 
-    def __init__(self, model: Model, free: np.ndarray, max_move: float, mu_min: float):
+    def __init__(self, model: Model, free: np.ndarray, max_move: float, mu_min: float,
+                 refused: str | None = None, mu_up: float | None = None):
         self.model, self.free, self.max_move, self.mu_min, self.mu = model, free, max_move, mu_min, 0.0
+        self.refused, self.mu_up = refused, mu_up
 
     def step(self, system: NewtonSystem, h, x, e, gf):
-        """Shrink (raise mu) until a step lowers U_B; returns (x, U, grad, dVol/dx) or None."""
+        """Shrink (raise mu, or halve the step: ``REFUSED_STEP``) until a step lowers U_B; returns
+        (x, U, grad, dVol/dx) or None."""
+        dx = None
         for _ in range(30):
-            dx, self.mu = system.step(h, gf, self.mu)
-            longest = float(np.max(np.linalg.norm(_full(dx, self.free, x.shape), axis=1)))
-            cap = min(1.0, self.max_move / longest) if longest > 0 else 1.0
-            dx *= cap
+            if dx is None:
+                dx, self.mu = system.step(h, gf, self.mu)
+                longest = float(np.max(np.linalg.norm(_full(dx, self.free, x.shape), axis=1)))
+                cap = min(1.0, self.max_move / longest) if longest > 0 else 1.0
+                dx *= cap
             predicted = -(gf @ dx + 0.5 * dx @ (h @ dx))
             xn = x.copy()
             xn.reshape(-1)[self.free] += dx
@@ -188,19 +204,25 @@ class _TrustRegion:
             actual = e - en
             noise = 1e-12 * (abs(e) + abs(en))   # U ~ p Vol: its round-off can exceed tiny decreases
             rho = actual / predicted if predicted > noise else (1.0 if abs(actual) <= noise else -1.0)
+            up = MU_UP if self.mu_up is None else self.mu_up
             if np.isfinite(en) and rho > 1e-4:
                 if rho < 0.25:
-                    self.mu = max(4.0 * self.mu, 1e2 * self.mu_min)
+                    self.mu = max(up * self.mu, 1e2 * self.mu_min)
                 elif rho > 0.75 and cap == 1.0:
                     self.mu = self.mu / MU_DOWN if self.mu > 1e2 * self.mu_min else 0.0
                 return xn, en, gn, gvn
-            self.mu = max(4.0 * self.mu, 1e2 * self.mu_min)
+            self.mu = max(up * self.mu, 1e2 * self.mu_min)
+            if (REFUSED_STEP if self.refused is None else self.refused) == "backtrack":
+                dx, cap = 0.5 * dx, 0.5 * cap     # the same direction, half as far: no new factorization
+            else:
+                dx = None
         return None
 
 
 def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max_iter: int = 200,
           max_move: float = np.inf, assembler=None, project: bool = False, strict: bool = False,
-          desc: str = "inflate", linear_system=None) -> SolveResult:
+          desc: str = "inflate", linear_system=None, refused_step: str | None = None,
+          mu_up: float | None = None) -> SolveResult:
     """Minimise U_B from ``x0`` by damped, shifted Newton iterations.
 
     Parameters
@@ -228,6 +250,11 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
         converges much faster where compressed edges soften the structure).
     strict : bool
         Raise :class:`ConvergenceError` instead of returning unconverged.
+    refused_step : {"shift", "backtrack"}, optional
+        What a step that does not lower U_B does (default :data:`REFUSED_STEP`): raise the
+        shift and factorize again, or halve the same step.
+    mu_up : float, optional
+        Factor of the shift after a poorly predicted or refused step (default :data:`MU_UP`).
 
     Returns
     -------
@@ -248,7 +275,9 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
     q_blocks = smoothing_blocks(model)
     history, converged, message, it = [], False, "", 0
     h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
-    tr = _TrustRegion(model, asm.free, max_move, 1e-8 * float(np.mean(np.abs(h.diagonal()))))
+    if refused_step not in (None, "shift", "backtrack"):
+        raise ValueError(f"refused_step must be 'shift' or 'backtrack', got {refused_step!r}")
+    tr = _TrustRegion(model, asm.free, max_move, 1e-8 * float(np.mean(np.abs(h.diagonal()))), refused_step, mu_up)
     system = linear_system if linear_system is not None else NewtonSystem(groups=asm.free // 3)
     if system.mu_min is None:
         system.mu_min = tr.mu_min

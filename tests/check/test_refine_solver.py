@@ -55,6 +55,26 @@ def test_a_trial_has_a_smaller_newton_budget_than_the_solves_that_are_not_trials
     assert prob.equilibrium(s.rest, shaken, max_newton=slow.n_iter - 1) is None       # out of its budget
 
 
+def test_the_trials_solve_with_their_own_rule_for_a_refused_step(case, monkeypatch):
+    import check.trial_equilibrium as te
+    import inflation.solver as sv
+
+    prob, s, inf = _problem(case, tol=1e-8)
+    seen = []
+
+    def solve(*args, **kwargs):
+        seen.append((kwargs["refused_step"], kwargs["mu_up"]))
+        return sv.solve(*args, **kwargs)
+
+    monkeypatch.setattr(te, "solve", solve)
+    for rule in (("backtrack", 2.0), ("shift", 4.0)):
+        monkeypatch.setattr(te, "TRIAL_REFUSED_STEP", rule)
+        eq = prob.equilibrium(s.rest, inf.xyz + 1e-4)
+        assert eq is not None and eq.converged
+        assert seen[-1] == rule
+    assert sv.REFUSED_STEP == "shift" and sv.MU_UP == 4.0        # the check's own inflations keep theirs
+
+
 def test_adjoint_gradient_and_jacobian_match_finite_differences(case):
     prob, s, inf = _problem(case)
     assert inf.converged

@@ -130,3 +130,61 @@ def test_bad_string_placement_and_resolution_are_input_errors(mesh):
         check_resolution(s, 0.1)
     with pytest.raises(InputError, match="limit"):
         build_mattress_mesh(2.6, 1.6, D, resolution=0.002)
+
+
+class _CountingSystem:
+    """A linear system of one unknown that counts its factorizations (``step`` calls)."""
+
+    def __init__(self):
+        self.calls = []
+
+    def step(self, h, g, mu):
+        self.calls.append(mu)
+        return -g / (h[0, 0] + mu), mu
+
+
+@pytest.mark.parametrize("rule, calls, mu", [("shift", 3, 8.0), ("backtrack", 1, 2.0)])
+def test_a_refused_step_is_shifted_and_refactorized_or_halved_without_a_new_factorization(monkeypatch, rule, calls,
+                                                                                           mu):
+    import inflation.solver as sv
+
+    # U(x) = (x - 1)² + 10 x⁴ from x = 0 with the Hessian of the quadratic part (2): the unshifted step (to
+    # x = 1) raises U (11 > 1). "shift" factorizes again with the shift at its floor 0.5 (to x = 0.8, U = 4.1,
+    # refused), then at 2 (x = 0.5, U = 0.875: taken); "backtrack" halves the first step to the same x = 0.5
+    # without a new factorization. Either way the step realized 1/6 of its predicted decrease (< 1/4): the
+    # shift is raised once more (x MU_UP) for the next iteration
+    def egv(model, x):
+        u = float(x[0, 0])
+        grad = np.zeros_like(x)
+        grad[0, 0] = 2.0 * (u - 1.0) + 40.0 * u ** 3
+        return (u - 1.0) ** 2 + 10.0 * u ** 4, grad, np.zeros_like(x)
+
+    monkeypatch.setattr(sv, "energy_gradient_volume", egv)
+    monkeypatch.setattr(sv, "REFUSED_STEP", rule)
+    monkeypatch.setattr(sv, "MU_UP", 4.0)
+    tr = sv._TrustRegion(None, np.array([0]), np.inf, 0.005)
+    system, x = _CountingSystem(), np.zeros((1, 3))
+    e, g, _ = egv(None, x)
+    xn, en, *_ = tr.step(system, np.array([[2.0]]), x, e, g.reshape(-1)[[0]])
+    assert len(system.calls) == calls
+    assert xn[0, 0] == pytest.approx(0.5)
+    assert en == pytest.approx(0.875) and en < e
+    assert tr.mu == pytest.approx(mu)
+
+
+def test_both_rules_for_a_refused_step_land_on_the_same_equilibrium_of_one_bend(mesh, monkeypatch):
+    import inflation.solver as sv
+
+    strings = StringSet(np.array([[0.05, 0.15]]), np.array([[0.45, 0.15]]), np.array([False]), np.array([0.3]))
+    shifted = inflate(mesh, strings)
+    monkeypatch.setattr(sv, "REFUSED_STEP", "backtrack")
+    monkeypatch.setattr(sv, "MU_UP", 2.0)
+    halved = inflate(mesh, strings)
+    assert shifted.converged and halved.converged
+    assert np.abs(halved.xyz - shifted.xyz).max() < 1e-6      # m: the same equilibrium, by another path
+
+
+def test_an_unknown_rule_for_a_refused_step_is_refused(mesh):
+    model = build_model(mesh, None)
+    with pytest.raises(ValueError, match="refused_step"):
+        solve(model, mesh.vertices, fixed_dofs=rigid_pins(mesh.uv, mesh.top), refused_step="retry")
