@@ -12,7 +12,8 @@ Levenberg–Marquardt shift (× ``MU_UP``, 4) and factorizes again; the
 alternative halves the same step (no new factorization) and leaves the
 raised shift to the next iteration (``inflation.solver.REFUSED_STEP =
 "backtrack"``). Each rule ``RULE:UP`` is applied to the whole run (the
-check's inflation and every equilibrium of the refinement). Per preset (paper
+check's inflation and every equilibrium of the refinement, whose own rule
+``check.trial_equilibrium.TRIAL_REFUSED_STEP`` is set to the same). Per preset (paper
 calibration values, seed 0, defaults) and rule: the open-loop inflation at
 its median lengths (the check's path, 20 mm), its Newton iterations over
 every level and its named face's RMS deviation from Ŝ; with ``--refine``, the
@@ -33,6 +34,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
+import check.trial_equilibrium as trial_equilibrium  # noqa: E402
 import inflation.solver as solver  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 from check.inflation_check import check  # noqa: E402
@@ -68,7 +70,8 @@ def main(argv=None) -> int:
     for name in names:
         design = designed_preset(name)
         for name_rule, up in args.rules:
-            with mock.patch.object(solver, "REFUSED_STEP", name_rule), mock.patch.object(solver, "MU_UP", up):
+            with mock.patch.object(solver, "REFUSED_STEP", name_rule), mock.patch.object(solver, "MU_UP", up), \
+                    mock.patch.object(trial_equilibrium, "TRIAL_REFUSED_STEP", (name_rule, up)):
                 t0 = time.perf_counter()
                 run = check(design, resolution=res, envelope=False).runs["median"]
                 seconds = time.perf_counter() - t0
