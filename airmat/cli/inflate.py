@@ -68,6 +68,9 @@ def run(args) -> int:
         doc = write_check(result, tmp)
         write_report(tmp, check=result, title=f"airmat inflate: {design.name}")
     print(summary_text(doc, args.out))
+    if design.refine is None and len(design.pattern.strings):
+        print(f"  next: these are the open-loop lengths (Equation 3, one dash at a time); "
+              f"'airmat refine {args.design} --out DIR' adjusts them together through the inflation")
     return not_converged("inflate", check_not_converged(result))
 
 

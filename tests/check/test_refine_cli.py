@@ -36,6 +36,7 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     assert "surface points moved" in capsys.readouterr().out
     assert main(["inflate", "-q", str(out), "--out", str(tmp_path / "inf"), "--resolution-mm", "40",
                  "--no-envelope"]) == 0
+    assert "airmat refine" not in capsys.readouterr().out    # refined lengths: no hint to refine them
     inf = json.loads((tmp_path / "inf" / "inflate.json").read_text())
     assert inf["deviation"]["rms_mm"] == pytest.approx(doc["refine"]["deviation_after"]["rms_mm"], abs=0.011)
     # --single-level: every iteration at the target resolution (no coarse mesh in the block)

@@ -55,7 +55,9 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     assert (out / "inflated.ply").stat().st_size > 0 and (out / "deviation.png").stat().st_size > 0
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "Inflation check" in page and "k1-002-01" in page and "did NOT converge" not in page
-    assert "deviation from S-hat (bottom face)" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "deviation from S-hat (bottom face)" in printed
+    assert f"'airmat refine {design} --out DIR'" in printed      # open-loop lengths: where to go next
     # top strings only: the named face is the bottom one (it keeps its length); every face for reference
     dev = doc["deviation"]
     assert dev["surface"] == doc["surface"] == "bottom"
