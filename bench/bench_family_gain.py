@@ -28,11 +28,11 @@ from unittest import mock
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import design.string_lengths as string_lengths  # noqa: E402
 from check.inflation_check import check  # noqa: E402
-from design.pipeline import DesignParams, design  # noqa: E402
-from design.presets import preset  # noqa: E402
+from designed_preset import designed_preset  # noqa: E402
 
 MM = 1e-3
 
@@ -65,11 +65,10 @@ def main(argv=None) -> int:
           "| RMS mm (% diag) | max mm | converged |")
     print("|---|---:|---:|---:|---|---|---:|---|")
     for name in args.presets.split(","):
-        target, mattress = preset(name)
         for b in args.bottom:
             for t in args.top:
                 with gained(b, t):
-                    result = design(target, mattress, params=DesignParams(), progress=False)
+                    result = designed_preset(name)
                 run = check(result, resolution=args.resolution_mm * MM, envelope=False)
                 med = run.runs["median"]
                 dev = med.deviation

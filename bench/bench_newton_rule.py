@@ -34,8 +34,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-import check.trial_equilibrium as trial_equilibrium  # noqa: E402
 import inflation.solver as solver  # noqa: E402
+from bench_refine import trial_refused, trial_rule  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 from check.inflation_check import check  # noqa: E402
 from check.refinement import refine  # noqa: E402
@@ -44,19 +44,11 @@ from design.presets import PRESETS  # noqa: E402
 MM = 1e-3
 
 
-def rule(text: str) -> tuple:
-    """``"backtrack:2"`` -> ("backtrack", 2.0)."""
-    name, _, up = text.partition(":")
-    if name not in ("shift", "backtrack"):
-        raise argparse.ArgumentTypeError(f"a rule is shift or backtrack, got {name!r}")
-    return name, float(up or solver.MU_UP)
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", nargs="+", default=["vault1", "saddle", "dome"],
                     help=f"names, or all ({', '.join(PRESETS)})")
-    ap.add_argument("--rules", nargs="+", type=rule, default=[("shift", 4.0), ("backtrack", 2.0)],
+    ap.add_argument("--rules", nargs="+", type=trial_rule, default=[("shift", 4.0), ("backtrack", 2.0)],
                     help="RULE:MU_UP, one row each (default: shift:4, the rule in use, and backtrack:2)")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
     ap.add_argument("--refine", action="store_true", help="also refine each design (check.refinement.refine)")
@@ -71,7 +63,7 @@ def main(argv=None) -> int:
         design = designed_preset(name)
         for name_rule, up in args.rules:
             with mock.patch.object(solver, "REFUSED_STEP", name_rule), mock.patch.object(solver, "MU_UP", up), \
-                    mock.patch.object(trial_equilibrium, "TRIAL_REFUSED_STEP", (name_rule, up)):
+                    trial_refused((name_rule, up)):
                 t0 = time.perf_counter()
                 run = check(design, resolution=res, envelope=False).runs["median"]
                 seconds = time.perf_counter() - t0

@@ -92,7 +92,7 @@ def main(argv=None) -> int:
     ap.add_argument("--damping-hold", type=int, nargs="+", choices=(0, 1), default=None,
                     help="1: the damping is held after an iteration that had to grow it (the default); "
                          "0: shrunk after every well-predicted step (the rule before); one row each, in a last column")
-    ap.add_argument("--trial-rule", nargs="+", type=_trial_rule, default=None,
+    ap.add_argument("--trial-rule", nargs="+", type=trial_rule, default=None,
                     help="RULE:MU_UP of the refinement's equilibria (shift:4, the check's rule; backtrack:2); "
                          "one row each, in a last column")
     args = ap.parse_args(argv)
@@ -117,7 +117,7 @@ def main(argv=None) -> int:
                 for h in (args.damping_hold or [None]) for t in (args.trial_rule or [None]) if c > 0 or n == 0]
         for coarsest, n, alpha, rounds, jac, hold, trial in runs:
             kw = _options(alpha, rounds)
-            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold), _trial_refused(trial):
+            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold), trial_refused(trial):
                 r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
                            coarsest=coarsest * MM, corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
@@ -139,7 +139,7 @@ def main(argv=None) -> int:
     return 0
 
 
-def _trial_rule(text: str) -> tuple:
+def trial_rule(text: str) -> tuple:
     """``"backtrack:2"`` -> ("backtrack", 2.0)."""
     rule, _, up = text.partition(":")
     if rule not in ("shift", "backtrack") or not up:
@@ -147,7 +147,7 @@ def _trial_rule(text: str) -> tuple:
     return rule, float(up)
 
 
-def _trial_refused(rule):
+def trial_refused(rule):
     """check.trial_equilibrium.TRIAL_REFUSED_STEP set to ``rule`` (None: left as it is)."""
     import check.trial_equilibrium as te
 
@@ -201,7 +201,7 @@ def spread(names, args) -> int:
             for rounds, hold, trial in [(k, h, t) for k in args.reparametrize for h in (args.damping_hold or [None])
                                         for t in (args.trial_rule or [None])]:
                 kw = _options(alpha, rounds)
-                with _damping_hold(hold), _trial_refused(trial):
+                with _damping_hold(hold), trial_refused(trial):
                     rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
                                  max_iter=args.max_iter, **kw) for k in range(args.draws)]
                 pct = np.array([r.deviation_after.rms_pct_diag for r in rs])

@@ -185,7 +185,8 @@ class _TrustRegion:
     def __init__(self, model: Model, free: np.ndarray, max_move: float, mu_min: float,
                  refused: str | None = None, mu_up: float | None = None):
         self.model, self.free, self.max_move, self.mu_min, self.mu = model, free, max_move, mu_min, 0.0
-        self.refused, self.mu_up = refused, mu_up
+        self.refused = REFUSED_STEP if refused is None else refused
+        self.mu_up = MU_UP if mu_up is None else mu_up
 
     def step(self, system: NewtonSystem, h, x, e, gf):
         """Shrink (raise mu, or halve the step: ``REFUSED_STEP``) until a step lowers U_B; returns
@@ -204,15 +205,14 @@ class _TrustRegion:
             actual = e - en
             noise = 1e-12 * (abs(e) + abs(en))   # U ~ p Vol: its round-off can exceed tiny decreases
             rho = actual / predicted if predicted > noise else (1.0 if abs(actual) <= noise else -1.0)
-            up = MU_UP if self.mu_up is None else self.mu_up
             if np.isfinite(en) and rho > 1e-4:
                 if rho < 0.25:
-                    self.mu = max(up * self.mu, 1e2 * self.mu_min)
+                    self.mu = max(self.mu_up * self.mu, 1e2 * self.mu_min)
                 elif rho > 0.75 and cap == 1.0:
                     self.mu = self.mu / MU_DOWN if self.mu > 1e2 * self.mu_min else 0.0
                 return xn, en, gn, gvn
-            self.mu = max(up * self.mu, 1e2 * self.mu_min)
-            if (REFUSED_STEP if self.refused is None else self.refused) == "backtrack":
+            self.mu = max(self.mu_up * self.mu, 1e2 * self.mu_min)
+            if self.refused == "backtrack":
                 dx, cap = 0.5 * dx, 0.5 * cap     # the same direction, half as far: no new factorization
             else:
                 dx = None
@@ -269,14 +269,14 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
         or ``max_iter`` runs out; without it those return
         ``converged=False`` with the reason in ``message`` (and a warning logged).
     """
+    if refused_step not in (None, "shift", "backtrack"):
+        raise ValueError(f"refused_step must be 'shift' or 'backtrack', got {refused_step!r}")
     t0 = time.perf_counter()
     x = np.array(x0, dtype=float, copy=True)
     asm = assembler or build_assembler(block_pattern(model), model.n_vertices, fixed_dofs)
     q_blocks = smoothing_blocks(model)
     history, converged, message, it = [], False, "", 0
     h = asm.assemble(hessian_blocks(model, x, project=project) + [q_blocks])
-    if refused_step not in (None, "shift", "backtrack"):
-        raise ValueError(f"refused_step must be 'shift' or 'backtrack', got {refused_step!r}")
     tr = _TrustRegion(model, asm.free, max_move, 1e-8 * float(np.mean(np.abs(h.diagonal()))), refused_step, mu_up)
     system = linear_system if linear_system is not None else NewtonSystem(groups=asm.free // 3)
     if system.mu_min is None:
