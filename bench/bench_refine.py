@@ -11,6 +11,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets saddle vault1 --reparametrize 0 1 --draws 8   # path spread
     .venv/bin/python bench/bench_refine.py --presets roof --jacobian-solve per-column all-at-once
     .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --draws 4 --damping-hold 0 1
+    .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --draws 4 --trial-newton 12 15 20
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (both from fresh inflations, what ``airmat inflate``
@@ -40,6 +41,10 @@ grow it (1, the default; ``check.gauss_newton.HOLD_AFTER_RETRY``), in a last col
 ``--trial-rule shift:4 backtrack:2``: one row (or spread row) each with the Newton method of the
 refinement's equilibria refactorizing a refused step with its shift ×4 (the check's rule) or halving
 it with the shift ×2 (``check.trial_equilibrium.TRIAL_REFUSED_STEP``), in a last column.
+
+``--trial-newton 12 15 20``: one row (or spread row) each with the Newton iterations a trial
+equilibrium may take before its step counts as failed (``check.trial_equilibrium.TRIAL_NEWTON``,
+20), in a last column.
 
 ``--draws K`` measures how much the outcome depends on the Gauss–Newton path: K
 refinements of the same design, the first at its own lengths and the others with every
@@ -95,6 +100,9 @@ def main(argv=None) -> int:
     ap.add_argument("--trial-rule", nargs="+", type=trial_rule, default=None,
                     help="RULE:MU_UP of the refinement's equilibria (shift:4, the check's rule; backtrack:2); "
                          "one row each, in a last column")
+    ap.add_argument("--trial-newton", type=int, nargs="+", default=None,
+                    help="Newton iterations a trial equilibrium may take (check.trial_equilibrium.TRIAL_NEWTON, "
+                         "20); one row each, in a last column")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
     if args.draws > 1:
@@ -103,10 +111,11 @@ def main(argv=None) -> int:
           "| refined RMS mm (% diag) | refined, to Ŝ's surface mm (% diag) | max mm before / after | iterations "
           "| converged | refine (s) | one inflation (s) | verification (s) | ratio | dropped / flagged "
           "| Ŝ moved (mm RMS) |" + (" Jacobian solve |" if args.jacobian_solve else "")
-          + (" damping held |" if args.damping_hold else "") + (" trial refused step |" if args.trial_rule else ""))
+          + (" damping held |" if args.damping_hold else "") + (" trial refused step |" if args.trial_rule else "")
+          + (" trial Newton |" if args.trial_newton else ""))
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
           + ("---|" if args.jacobian_solve else "") + ("---|" if args.damping_hold else "")
-          + ("---|" if args.trial_rule else ""))
+          + ("---|" if args.trial_rule else "") + ("---|" if args.trial_newton else ""))
     for name in names:
         design = designed_preset(name)
         m = design.mattress
@@ -114,10 +123,11 @@ def main(argv=None) -> int:
         diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
         runs = [(c, n, a, k, j, h, t) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
                 for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"])
-                for h in (args.damping_hold or [None]) for t in (args.trial_rule or [None]) if c > 0 or n == 0]
-        for coarsest, n, alpha, rounds, jac, hold, trial in runs:
+                for h in (args.damping_hold or [None]) for t in (args.trial_rule or [None])
+                for tn in (args.trial_newton or [None]) if c > 0 or n == 0]
+        for coarsest, n, alpha, rounds, jac, hold, trial, cap in runs:
             kw = _options(alpha, rounds)
-            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold), trial_refused(trial):
+            with _JACOBIAN_SOLVES[jac](), _damping_hold(hold), trial_refused(trial), trial_newton(cap):
                 r = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
                            coarsest=coarsest * MM, corrections=n, **kw)
             b, a = r.deviation_before, r.deviation_after
@@ -135,8 +145,16 @@ def main(argv=None) -> int:
                   f"| {r.seconds / r.inflation_seconds:.1f}× | {len(r.dropped)} / {len(r.flagged)} | {moved} |"
                   + (f" {jac} |" if args.jacobian_solve else "")
                   + (f" {'yes' if hold else 'no'} |" if args.damping_hold else "")
-                  + (f" {trial[0]} ×{trial[1]:g} |" if args.trial_rule else ""), flush=True)
+                  + (f" {trial[0]} ×{trial[1]:g} |" if args.trial_rule else "")
+                  + (f" {cap} |" if args.trial_newton else ""), flush=True)
     return 0
+
+
+def trial_newton(cap):
+    """check.trial_equilibrium.TRIAL_NEWTON set to ``cap`` (None: left as it is)."""
+    import check.trial_equilibrium as te
+
+    return contextlib.nullcontext() if cap is None else mock.patch.object(te, "TRIAL_NEWTON", int(cap))
 
 
 def trial_rule(text: str) -> tuple:
@@ -192,16 +210,19 @@ def spread(names, args) -> int:
     """One row per preset and setting: the refined deviation over ``args.draws`` jittered refinements."""
     print(f"| preset | alpha | re-param rounds | draws (±{args.jitter_um:g} µm) | refined % diag: median | min – max "
           "| ≤ 1 % | converged | refined % diag, each draw | refine / its first inflation, each draw |"
-          + (" damping held |" if args.damping_hold else "") + (" trial refused step |" if args.trial_rule else ""))
+          + (" damping held |" if args.damping_hold else "") + (" trial refused step |" if args.trial_rule else "")
+          + (" trial Newton |" if args.trial_newton else ""))
     print("|---|---|---|---|---|---|---|---|---|---|" + ("---|" if args.damping_hold else "")
-          + ("---|" if args.trial_rule else ""))
+          + ("---|" if args.trial_rule else "") + ("---|" if args.trial_newton else ""))
     for name in names:
         design = designed_preset(name)
         for alpha in args.alpha:
-            for rounds, hold, trial in [(k, h, t) for k in args.reparametrize for h in (args.damping_hold or [None])
-                                        for t in (args.trial_rule or [None])]:
+            for rounds, hold, trial, cap in [(k, h, t, tn) for k in args.reparametrize
+                                             for h in (args.damping_hold or [None])
+                                             for t in (args.trial_rule or [None])
+                                             for tn in (args.trial_newton or [None])]:
                 kw = _options(alpha, rounds)
-                with _damping_hold(hold), trial_refused(trial):
+                with _damping_hold(hold), trial_refused(trial), trial_newton(cap):
                     rs = [refine(jittered(design, k, args.jitter_um * 1e-6), resolution=args.resolution_mm * MM,
                                  max_iter=args.max_iter, **kw) for k in range(args.draws)]
                 pct = np.array([r.deviation_after.rms_pct_diag for r in rs])
@@ -210,7 +231,8 @@ def spread(names, args) -> int:
                       f"| {sum(r.converged for r in rs)} / {len(rs)} | {' '.join(f'{p:.2f}' for p in pct)} "
                       f"| {' '.join(f'{r.seconds / r.inflation_seconds:.1f}×' for r in rs)} |"
                       + (f" {'yes' if hold else 'no'} |" if args.damping_hold else "")
-                      + (f" {trial[0]} ×{trial[1]:g} |" if args.trial_rule else ""), flush=True)
+                      + (f" {trial[0]} ×{trial[1]:g} |" if args.trial_rule else "")
+                      + (f" {cap} |" if args.trial_newton else ""), flush=True)
     return 0
 
 
