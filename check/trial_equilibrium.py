@@ -36,7 +36,9 @@ log = logging.getLogger(__name__)
 #: failed (the damping then rises and the step shrinks). A trial that needs more has crossed a change
 #: of the wrinkles, where the linear model does not hold. Measured at 20 mm (README, Refinement), 20
 #: against 50: vault1 0.78 -> 0.72 % of the diagonal and 5.9x -> 4.7x one inflation, the saddle,
-#: vault2 and the roof the same numbers, the dome 3.25 -> 3.62 % (2.9x instead of 4.2x).
+#: vault2 and the roof the same numbers, the dome 3.25 -> 3.62 % (2.9x instead of 4.2x). Against 12 and 15
+#: (``bench/bench_refine.py --draws 4 --trial-newton 12 15 20``): vault1 0.70 -> 0.91 % and the dome
+#: 3.15 -> 3.88 % for ratios of 4.0-4.4x instead of 4.6-5.2x (vault1), the saddle 0.82 -> 0.79 % at 15.
 TRIAL_NEWTON = 20
 
 #: Newton iterations of the equilibria that are not trials of a step (the coarse start, a defect correction)
