@@ -91,7 +91,8 @@ class TrialProblem:
             r = solve(self.model(rest), x0, fixed_dofs=self.fixed, tol=self.tol,
                       max_iter=self.max_newton if max_newton is None else max_newton,
                       max_move=0.5 * float(np.mean(self.mesh.spacing)), assembler=self.asm,
-                      linear_system=self.system, desc="trial equilibrium", refused_step=rule, mu_up=up)
+                      linear_system=self.system, desc="trial equilibrium", refused_step=rule, mu_up=up,
+                      warn=False)     # a trial without an equilibrium is an answer (the step shrinks), not a fault
         except AirmatError:
             r = None
         log.debug("trial equilibrium: %s", "failed" if r is None else f"{r.n_iter} Newton iterations, {r.message}")

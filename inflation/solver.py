@@ -222,7 +222,7 @@ class _TrustRegion:
 def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max_iter: int = 200,
           max_move: float = np.inf, assembler=None, project: bool = False, strict: bool = False,
           desc: str = "inflate", linear_system=None, refused_step: str | None = None,
-          mu_up: float | None = None) -> SolveResult:
+          mu_up: float | None = None, warn: bool = True) -> SolveResult:
     """Minimise U_B from ``x0`` by damped, shifted Newton iterations.
 
     Parameters
@@ -255,6 +255,9 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
         shift and factorize again, or halve the same step.
     mu_up : float, optional
         Factor of the shift after a poorly predicted or refused step (default :data:`MU_UP`).
+    warn : bool
+        Log a run that does not converge as a warning (False: at debug level, for callers to
+        whom it is an expected outcome, such as the refinement's trial equilibria).
 
     Returns
     -------
@@ -309,7 +312,7 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
             bar.update(1)
     log.debug("%s: %d iterations, %d Cholesky factorizations", desc, it, system.n_factorizations)
     if not converged:
-        log.warning("inflation solver: %s", message)
+        (log.warning if warn else log.debug)("inflation solver: %s", message)
         if strict:
             raise ConvergenceError(message, residual=history[-1], n_iter=it)
     return SolveResult(xyz=x, converged=converged, n_iter=it, residual=history[-1], message=message,

@@ -55,6 +55,26 @@ def test_a_trial_has_a_smaller_newton_budget_than_the_solves_that_are_not_trials
     assert prob.equilibrium(s.rest, shaken, max_newton=slow.n_iter - 1) is None       # out of its budget
 
 
+def test_a_trial_without_an_equilibrium_is_not_logged_as_a_warning_but_a_plain_solve_is(case, caplog):
+    # a trial out of its budget is an answer the Gauss–Newton loop uses (the step shrinks), not a fault:
+    # API users would otherwise see one warning per refused step
+    import logging
+
+    from inflation.solver import solve
+
+    prob, s, inf = _problem(case, tol=1e-8)
+    shaken = inf.xyz + 0.002 * np.random.default_rng(1).normal(size=inf.xyz.shape)
+    with caplog.at_level(logging.DEBUG, logger="inflation.solver"):
+        assert prob.equilibrium(s.rest, shaken, max_newton=1) is None
+    unconverged = [r for r in caplog.records if "not converged" in r.getMessage()]
+    assert unconverged and all(r.levelno == logging.DEBUG for r in unconverged)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="inflation.solver"):
+        r = solve(prob.model(s.rest), shaken, fixed_dofs=prob.fixed, tol=1e-8, max_iter=1)
+    assert not r.converged
+    assert [rec.levelno for rec in caplog.records] == [logging.WARNING]
+
+
 def test_the_trials_solve_with_their_own_rule_for_a_refused_step(case, monkeypatch):
     import check.trial_equilibrium as te
     import inflation.solver as sv
