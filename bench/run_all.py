@@ -19,9 +19,10 @@ BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py", "be
            "bench_density.py", "bench_coverage.py", "bench_dash_kappa.py", "bench_deviation_map.py",
            "bench_specimen.py", "bench_face_strain.py", "bench_inflation.py", "bench_check.py",
            "bench_surfaces.py", "bench_refine.py", "bench_monte_carlo.py", "bench_startup.py",
-           "bench_check_subset.py", "bench_family_gain.py", "bench_newton_rule.py"]
+           "bench_check_subset.py", "bench_family_gain.py", "bench_newton_rule.py", "bench_assembly.py",
+           "bench_relax_compression.py"]
 #: the benchmarks that take --quick (small sizes); the others run as they are
-QUICK = {"bench_cholesky.py", "bench_inflation.py", "bench_check.py"}
+QUICK = {"bench_cholesky.py", "bench_inflation.py", "bench_check.py", "bench_assembly.py"}
 
 
 def main(argv=None) -> int:
