@@ -36,6 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import design.local_global as local_global  # noqa: E402
 from check.inflation_check import check  # noqa: E402
 from design.closest_point import MeshProjector  # noqa: E402
+from bench_family_gain import floats  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 
 MM = 1e-3
@@ -67,10 +68,6 @@ def softer_in_compression(c: float):
     if c == 1.0:
         return contextlib.nullcontext()
     return mock.patch.multiple(cls, energy=energy, global_step=global_step)
-
-
-def floats(text: str) -> list:
-    return [float(v) for v in text.split(",")]
 
 
 def main(argv=None) -> int:
