@@ -119,6 +119,7 @@ class MeshProjector:
         self._rim_edge, self._rim_vertex = boundary_face_flags(self._faces, len(vertices))
         self._rim_face = self._rim_edge.any(axis=1) | self._rim_vertex[self._faces].any(axis=1)
         tri = vertices[self._faces]
+        self._tri = tri                          # every face's corners (f, 3, 3): one gather per query
         side = np.linalg.norm(tri[:, [2, 0, 1]] - tri[:, [1, 2, 0]], axis=2)   # side opposite corner i
         # altitude onto the side opposite corner i: the distance per unit of barycentric coordinate i
         self._altitude = np.linalg.norm(cross, axis=1)[:, None] / np.maximum(side, 1e-300)
@@ -141,7 +142,7 @@ class MeshProjector:
         face = ans["primitive_ids"].numpy().astype(np.int64)
         bad = (face < 0) | (face >= len(self._faces))   # open3d's invalid id (NaN queries)
         face[bad] = 0
-        tri = self._vertices[self._faces[face]]
+        tri = self._tri[face]
         cp = closest_point_on_triangles(tri, points)
         cp[bad] = np.nan
         return ClosestPoints(points=cp, face=face,
