@@ -52,6 +52,16 @@ def floats(text: str) -> list:
     return [float(v) for v in text.split(",")]
 
 
+def open_loop_cells(result, resolution: float) -> str:
+    """Inflate ``result`` at its median lengths (``resolution`` m, no envelope); the table's last cells:
+    strings, named face, RMS mm (% diag), max mm, converged."""
+    run = check(result, resolution=resolution, envelope=False)
+    med = run.runs["median"]
+    dev = med.deviation
+    return (f"| {len(result.pattern.strings)} | {run.surface} | {dev.rms / MM:.1f} ({dev.rms_pct_diag:.2f}) "
+            f"| {dev.max / MM:.1f} | {med.inflation.converged} |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", default="saddle", help="comma-separated preset names")
@@ -69,12 +79,7 @@ def main(argv=None) -> int:
             for t in args.top:
                 with gained(b, t):
                     result = designed_preset(name)
-                run = check(result, resolution=args.resolution_mm * MM, envelope=False)
-                med = run.runs["median"]
-                dev = med.deviation
-                print(f"| {name} | {b:g} | {t:g} | {len(result.pattern.strings)} | {run.surface} "
-                      f"| {dev.rms / MM:.1f} ({dev.rms_pct_diag:.2f}) | {dev.max / MM:.1f} "
-                      f"| {med.inflation.converged} |", flush=True)
+                print(f"| {name} | {b:g} | {t:g} " + open_loop_cells(result, args.resolution_mm * MM), flush=True)
     return 0
 
 

@@ -104,6 +104,8 @@ def main(argv=None) -> int:
                     help="Newton iterations a trial equilibrium may take (check.trial_equilibrium.TRIAL_NEWTON, "
                          "20); one row each, in a last column")
     args = ap.parse_args(argv)
+    if args.trial_newton and min(args.trial_newton) < 1:
+        ap.error(f"--trial-newton: a trial needs at least 1 Newton iteration, got {args.trial_newton}")
     names = list(PRESETS) if args.presets == ["all"] else args.presets
     if args.draws > 1:
         return spread(names, args)
