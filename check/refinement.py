@@ -216,8 +216,16 @@ def _bounds(design, strings) -> tuple:
     return lo, span
 
 
-def check_refinable(design, resolution: float) -> None:
+def check_refinable(design, resolution: float, path=None) -> None:
     """Refuse, before any work, what :func:`refine` cannot refine.
+
+    Parameters
+    ----------
+    design : design.pipeline.DesignResult
+    resolution : float
+        The refinement's mesh edge length (m).
+    path : str or PathLike, optional
+        The file the design was read from: named by the errors about its content.
 
     Raises
     ------
@@ -226,10 +234,10 @@ def check_refinable(design, resolution: float) -> None:
         or no posterior samples in the design's calibration.
     """
     if len(design.pattern.strings) == 0:
-        raise InputError("the design has no strings: nothing to refine")
+        raise InputError("the design has no strings: nothing to refine", path=path)
     if getattr(design.calibration, "n_samples", 0) == 0:
         raise InputError("the design's calibration has no posterior samples: a refined length's "
-                         "tolerance cannot be computed")
+                         "tolerance cannot be computed", path=path)
     check_resolution(design_strings(design, "median"), resolution)
 
 

@@ -38,7 +38,18 @@ log = logging.getLogger("airmat")
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2, like every other user error
-        self.exit(2, f"airmat {self.prog.split()[-1]}: {message}\n")
+        words = self.prog.split()
+        self.exit(2, f"{' '.join(['airmat', *words[1:]][:2])}: {message}\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, but an unknown option is refused by its subcommand's parser, so that the
+        line names the subcommand (``airmat design: unrecognized arguments: --x``), as every other
+        error of that subcommand does."""
+        namespace, extra = self.parse_known_args(args, namespace)
+        if extra:
+            sub = getattr(self, "commands", {}).get(getattr(namespace, "command", None), self)
+            sub.error(f"unrecognized arguments: {' '.join(extra)}")
+        return namespace
 
 
 def seed(text: str) -> int:
@@ -64,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="seed of every random step: an integer in [0, 2**32) (default 0)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
+    parser.commands = sub.choices     # name -> the subcommand's parser (its own error line)
     for name in COMMANDS:
         module = importlib.import_module(f"airmat.cli.{name}")
         module.add_parser(sub, [common])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from airmat.errors import InputError
 
 
@@ -54,7 +56,7 @@ def run(args) -> int:
     check_regularization("--regularization", args.regularization)
     check_rounds("--reparametrize", args.reparametrize)
     design = read_design(args.design)
-    check_refinable(design, args.resolution_mm * MM)
+    check_refinable(design, args.resolution_mm * MM, path=Path(args.design) / "design.json")
     refinement = refine(design, resolution=args.resolution_mm * MM, max_iter=args.max_iter,
                         **refine_options(args.defect_corrections, args.regularization, args.single_level,
                                          args.reparametrize))
