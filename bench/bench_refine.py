@@ -123,7 +123,7 @@ def main(argv=None) -> int:
         m = design.mattress
         surface = MeshProjector(design.approx.xyz, design.approx.faces)
         diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
-        runs = [(c, n, a, k, j, h, t) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
+        runs = [(c, n, a, k, j, h, t, tn) for c in args.coarsest_mm for n in args.corrections for a in args.alpha
                 for k in args.reparametrize for j in (args.jacobian_solve or ["all-at-once"])
                 for h in (args.damping_hold or [None]) for t in (args.trial_rule or [None])
                 for tn in (args.trial_newton or [None]) if c > 0 or n == 0]
