@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import factorized
+from scipy.sparse.linalg import splu
 
 from airmat.errors import ConvergenceError
 from airmat.geometry.topology import boundary_edge_mask, cotangent_matrix, mesh_edges
@@ -95,7 +95,10 @@ class UAProblem:
         self.inc = sp.csr_matrix((np.r_[np.ones(m), -np.ones(m)],
                                   (rows, np.r_[self.edges[:, 0], self.edges[:, 1]])), shape=(m, n))
         self.gmat = (k1 * (self.inc.T @ self.inc) + k2 * sp.identity(n) + k3 * (self.lap.T @ self.lap)).tocsc()
-        self.solve = factorized(self.gmat)
+        # SuperLU by name: scipy's ``factorized`` would switch to UMFPACK wherever scikit-umfpack is
+        # installed, and every design's last bits with it
+        self.solve = splu(self.gmat).solve
+        self._inc_t = self.inc.T               # (n, m), CSC: transposed once, not at every step
         self.k = (k1, k2, k3)
         self.projector = projector
         self.extend_rim = extend_rim
@@ -120,7 +123,9 @@ class UAProblem:
         d = self.inc @ x
         length = np.linalg.norm(d, axis=1)
         d *= (self.rest / np.maximum(length, 1e-12 * self.h))[:, None]
-        rhs = k1 * (self.inc.T @ d) + k2 * cp
+        rhs = k1 * (self._inc_t @ d) + k2 * cp
+        # one coordinate per solve: SuperLU's blocked solve of the three at once rounds otherwise
+        # (the dome's Ŝ moved in its last bits), and every measured design would move with it
         g = np.column_stack([self.solve(np.ascontiguousarray(rhs[:, c])) for c in range(3)])
         return g, rhs - self.gmat @ x
 
