@@ -24,7 +24,7 @@ import os  # noqa: E402
 import sys  # noqa: E402
 
 from airmat import __version__  # noqa: E402
-from airmat.cli._exit import BAD_INPUT, FAILED, INTERRUPTED  # noqa: E402
+from airmat.cli._exit import BAD_INPUT, FAILED, INTERRUPTED, NOT_CONVERGED, OK  # noqa: E402
 from airmat.errors import AirmatError, InputError  # noqa: E402
 from airmat.progress import set_progress  # noqa: E402
 
@@ -34,6 +34,24 @@ __all__ = ["main", "build_parser"]
 COMMANDS = ("synth", "fit", "calibrate", "design", "refine", "inflate", "retie", "validate", "gallery", "demo")
 
 log = logging.getLogger("airmat")
+
+#: what ``airmat --help`` says above the subcommands (plain text: the module docstring is for developers)
+DESCRIPTION = ("Tension-string patterns that inflate a flat drop-stitch mattress into a curved\n"
+               "shell (Todo et al., IASS 2024): calibrate, design, check.")
+
+#: what ``airmat --help`` says below them
+EPILOG = f"""\
+the usual order:
+  airmat synth S                                       # or your own scans and a manifest.csv
+  airmat calibrate S/manifest.csv --out C              # Equation 3's Delta and d, with their posterior
+  airmat design --preset vault1 --calibration C --out D --refine
+  airmat inflate D --out I                             # how far the inflated mattress lands from the surface
+  airmat demo                                          # all of it on synthetic data
+
+Lengths are in mm in every file and option, curvature in 1/m. `airmat COMMAND --help` lists a
+command's options. Exit codes: {OK} done; {FAILED} a solver failed outright, nothing written; {BAD_INPUT} bad
+input, one line on stderr, nothing written; {NOT_CONVERGED} a solver did not converge, results written and
+the reason on stderr; {INTERRUPTED} interrupted, nothing written."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -64,7 +82,8 @@ def seed(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="airmat", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="airmat", description=DESCRIPTION, epilog=EPILOG,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"airmat {__version__}")
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("-v", "--verbose", action="count", default=0,

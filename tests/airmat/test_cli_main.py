@@ -29,4 +29,34 @@ def test_unknown_option_is_a_one_line_usage_error(capsys):
         main(["fit", "scan.ply", "--no-such-option"])
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "no-such-option" in err[0]
+    assert len(err) == 1 and err[0].startswith("airmat fit: ") and "no-such-option" in err[0]
+
+
+def test_a_missing_or_unknown_subcommand_is_named_once(capsys):
+    for argv in ([], ["nosuch"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("airmat: ") and "COMMAND" in err[0]
+
+
+def test_the_help_examples_parse_and_the_exit_codes_are_the_real_ones(capsys):
+    """Every `airmat ...` line of `airmat --help`'s epilog is a valid command line, and the exit codes it
+    lists are the ones the commands return."""
+    from airmat.cli import EPILOG, build_parser
+    from airmat.cli._exit import BAD_INPUT, FAILED, INTERRUPTED, NOT_CONVERGED, OK
+
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    assert EPILOG.splitlines()[-1] in capsys.readouterr().out
+    examples = [ln.split("#")[0].split()[1:] for ln in EPILOG.splitlines() if ln.strip().startswith("airmat ")]
+    assert len(examples) == 5
+    parser = build_parser()
+    for argv in examples:
+        args = parser.parse_args(argv)            # exits 2 on a line that does not parse
+        assert args.command == argv[0]
+    text = " ".join(EPILOG.split())
+    for code, words in ((OK, "done"), (FAILED, "a solver failed outright"), (BAD_INPUT, "bad input"),
+                        (NOT_CONVERGED, "a solver did not converge"), (INTERRUPTED, "interrupted")):
+        assert f"{code} {words}" in text
