@@ -77,7 +77,7 @@ def _refine_line(r) -> str:
     return (f"  refinement   RMS {b.rms * 1e3:.1f} -> {a.rms * 1e3:.1f} mm ({b.rms_pct_diag:.2f} -> "
             f"{a.rms_pct_diag:.2f}% of the diagonal), {r.iterations} Gauss-Newton iterations, "
             + ("" if r.reparametrization is None else
-               f"Ŝ's points moved {r.reparametrization.moved_rms * 1e3:.1f} mm RMS along it, ")
+               f"S-hat's points moved {r.reparametrization.moved_rms * 1e3:.1f} mm RMS along it, ")
             + f"{'converged' if r.converged else 'NOT CONVERGED'}{dropped}")
 
 

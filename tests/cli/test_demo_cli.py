@@ -53,4 +53,4 @@ def test_the_refinement_line_counts_dropped_strings_in_words(dropped, words):
     assert line.endswith(words) and "13.1 -> 13.1 mm" in line and "moved" not in line
     line = _refine_line(SimpleNamespace(deviation_before=dev, deviation_after=dev, iterations=11, converged=True,
                                         dropped=dropped, reparametrization=SimpleNamespace(moved_rms=0.00334)))
-    assert line.endswith(words) and "iterations, Ŝ's points moved 3.3 mm RMS along it, converged" in line
+    assert line.endswith(words) and "iterations, S-hat's points moved 3.3 mm RMS along it, converged" in line
