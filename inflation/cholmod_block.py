@@ -10,8 +10,20 @@ calls ``cholmod_l_solve`` through :mod:`ctypes` in cvxopt's bundled
 libcholmod, the library that already holds the factor (no second
 factorization, no new dependency).
 
-Measured (``bench/bench_cholesky.py``, the roof's first Jacobian of its
-refinement: 17 112 unknowns, 289 right-hand sides), see the README.
+Measured (``bench/bench_jacobian_solve.py``, the roof's Jacobian on the
+refinement's 40 mm mesh: 17 112 unknowns, 289 right-hand sides), see the README.
+
+cvxopt's OpenBLAS is a sequential build, so one CHOLMOD call runs on one core.
+A large right-hand side (at least ``MIN_SPLIT`` entries) is split in two
+column blocks solved side by side on two threads when another core is idle
+(:func:`airmat.cores.idle_cores`; ctypes lets go of the GIL during the
+call), each with a ``cholmod_common`` of its own. The blocks start at
+multiples of ``ALIGN`` columns: a column's BLAS-3 arithmetic then does not
+depend on the block it is in, and the answer is the same bits with one
+thread or two (tested; the OpenBLAS kernel families SkylakeX, Haswell,
+Zen, Sandybridge, Cooperlake and Prescott were checked by hand: Prescott's
+kernels need 4, Haswell's 2, whereas a block boundary at an odd column
+changes the last bit there).
 
 The call relies on CHOLMOD's public structs (``cholmod_dense``; the first
 two fields of ``cholmod_factor``) and on cvxopt handing its factor out as a
@@ -26,11 +38,22 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["solve_many", "available"]
+from airmat.cores import idle_cores
+
+__all__ = ["solve_many", "available", "column_blocks", "ALIGN", "MIN_SPLIT"]
+
+#: a right-hand side is split only at multiples of this many columns (see the module docstring)
+ALIGN = 8
+
+#: nor below this many entries (unknowns x columns): the roof's Jacobian on its 40 mm mesh has 4.9 M,
+#: vault1's 0.13 M (a 6 ms solve, which a thread would not shorten)
+MIN_SPLIT = 1_000_000
 
 _CAPSULE = b"CHOLMOD FACTOR D L"     # cvxopt: a real factor, CHOLMOD's long-integer interface
 _CHOLMOD_A = 0                      # solve A x = b (the permutation included)
@@ -46,8 +69,19 @@ class _Dense(ctypes.Structure):
                 ("xtype", ctypes.c_int), ("dtype", ctypes.c_int)]
 
 
+class _Common:
+    """One ``cholmod_common`` (CHOLMOD's workspace and settings), used under its lock."""
+
+    def __init__(self, lib: ctypes.CDLL):
+        # cholmod_common is a few kB in every CHOLMOD version: 64 kB holds it with room to spare
+        self.buffer = ctypes.create_string_buffer(1 << 16)
+        if lib.cholmod_l_start(self.buffer) != 1:
+            raise OSError("cholmod_l_start failed")
+        self.lock = threading.Lock()
+
+
 class _Library:
-    """cvxopt's libcholmod with one ``cholmod_common`` of its own (used under a lock)."""
+    """cvxopt's libcholmod with two ``cholmod_common`` of its own, one per thread of a split solve."""
 
     def __init__(self, lib: ctypes.CDLL):
         lib.cholmod_l_start.argtypes = [ctypes.c_void_p]
@@ -55,11 +89,58 @@ class _Library:
         lib.cholmod_l_solve.argtypes = [ctypes.c_int, ctypes.c_void_p, ctypes.POINTER(_Dense), ctypes.c_void_p]
         lib.cholmod_l_free_dense.argtypes = [ctypes.POINTER(ctypes.POINTER(_Dense)), ctypes.c_void_p]
         self.lib = lib
-        # cholmod_common is a few kB in every CHOLMOD version: 64 kB holds it with room to spare
-        self.common = ctypes.create_string_buffer(1 << 16)
-        if lib.cholmod_l_start(self.common) != 1:
-            raise OSError("cholmod_l_start failed")
-        self.lock = threading.Lock()
+
+    @property
+    def commons(self) -> tuple[_Common, _Common]:
+        """This process's two commons (a forked child makes its own: a lock held at the fork stays held)."""
+        return _commons(self, os.getpid())
+
+    def solve(self, ptr, b: np.ndarray, common: _Common) -> np.ndarray | None:
+        """X with ``A X = b`` for a dense block ``b`` (n, k) on the factor at ``ptr``; None if CHOLMOD says no."""
+        n, k = b.shape
+        bf = np.asfortranarray(b)
+        rhs = _Dense(n, k, n * k, n, bf.ctypes.data, None, _CHOLMOD_REAL, _CHOLMOD_DOUBLE)
+        with common.lock:
+            out = self.lib.cholmod_l_solve(_CHOLMOD_A, ptr, ctypes.byref(rhs), common.buffer)
+            if not out:
+                return None
+            try:
+                d = out.contents
+                if (d.nrow, d.ncol, d.d, d.xtype) != (n, k, n, _CHOLMOD_REAL):
+                    return None
+                return np.ctypeslib.as_array(ctypes.cast(d.x, ctypes.POINTER(ctypes.c_double)), shape=(k, n)).T.copy()
+            finally:
+                self.lib.cholmod_l_free_dense(ctypes.byref(out), common.buffer)
+
+
+@functools.cache
+def _commons(library: _Library, pid: int) -> tuple[_Common, _Common]:
+    return _Common(library.lib), _Common(library.lib)
+
+
+@functools.cache
+def _second_thread(pid: int) -> ThreadPoolExecutor:
+    """The thread that solves a split right-hand side's second block, one per process (a forked
+    child inherits its parent's pool but not the pool's thread, and would wait for it forever)."""
+    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="airmat-cholmod")
+
+
+def column_blocks(n: int, k: int, threads: int) -> list[tuple[int, int]]:
+    """The column blocks ``[(start, stop), ...]`` of an (n, k) right-hand side solved on ``threads`` threads.
+
+    Two blocks when ``threads >= 2`` and the right-hand side has at least ``MIN_SPLIT``
+    entries: split at the multiple of ``ALIGN`` nearest to half, each block at least
+    ``ALIGN`` columns wide; else one block.
+
+    Examples
+    --------
+    >>> column_blocks(17112, 289, 2), column_blocks(17112, 289, 1), column_blocks(3144, 41, 2)
+    ([(0, 144), (144, 289)], [(0, 289)], [(0, 41)])
+    """
+    m = ALIGN * int(round(k / (2 * ALIGN)))
+    if threads < 2 or n * k < MIN_SPLIT or m < ALIGN or k - m < ALIGN:
+        return [(0, k)]
+    return [(0, m), (m, k)]
 
 
 @functools.cache
@@ -92,7 +173,7 @@ _api.PyCapsule_GetPointer.restype = ctypes.c_void_p
 _api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
 
 
-def solve_many(factor, b: np.ndarray) -> np.ndarray | None:
+def solve_many(factor, b: np.ndarray, threads: int | None = None) -> np.ndarray | None:
     """Solve ``A X = B`` for all columns of ``B`` at once with cvxopt's CHOLMOD factor of ``A``.
 
     Parameters
@@ -101,6 +182,9 @@ def solve_many(factor, b: np.ndarray) -> np.ndarray | None:
         A complete numeric factor from ``cvxopt.cholmod.numeric`` (real).
     b : ndarray of shape (n, k)
         Right-hand sides (any units; X has b's units over A's).
+    threads : int, optional
+        Threads for a large ``b`` (:func:`column_blocks`); default: 2 when another core is
+        idle (:func:`airmat.cores.idle_cores`), else 1. The answer is the same bits either way.
 
     Returns
     -------
@@ -122,17 +206,13 @@ def solve_many(factor, b: np.ndarray) -> np.ndarray | None:
     head = (ctypes.c_size_t * 2).from_address(ptr)  # cholmod_factor: n, then minor (= n when complete)
     if head[0] != n or head[1] != n:
         return None
-    bf = np.asfortranarray(b)
-    rhs = _Dense(n, k, n * k, n, bf.ctypes.data, None, _CHOLMOD_REAL, _CHOLMOD_DOUBLE)
-    with lib.lock:
-        out = lib.lib.cholmod_l_solve(_CHOLMOD_A, ptr, ctypes.byref(rhs), lib.common)
-        if not out:
-            return None
-        try:
-            d = out.contents
-            if (d.nrow, d.ncol, d.d, d.xtype) != (n, k, n, _CHOLMOD_REAL):
-                return None
-            x = np.ctypeslib.as_array(ctypes.cast(d.x, ctypes.POINTER(ctypes.c_double)), shape=(k, n)).T.copy()
-        finally:
-            lib.lib.cholmod_l_free_dense(ctypes.byref(out), lib.common)
-    return x
+    if threads is None:
+        threads = 1 if n * k < MIN_SPLIT else idle_cores(samples=1)
+    blocks = column_blocks(n, k, threads)
+    if len(blocks) == 1:
+        return lib.solve(ptr, b, lib.commons[0])
+    (a0, a1), (b0, b1) = blocks
+    second = _second_thread(os.getpid()).submit(lib.solve, ptr, b[:, b0:b1], lib.commons[1])
+    first = lib.solve(ptr, b[:, a0:a1], lib.commons[0])
+    rest = second.result()
+    return None if first is None or rest is None else np.hstack([first, rest])
