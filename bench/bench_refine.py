@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import sys
 from pathlib import Path
 from unittest import mock
@@ -152,11 +153,16 @@ def main(argv=None) -> int:
     return 0
 
 
+def _setting(module: str, name: str, value):
+    """``module.name`` set to ``value`` while the block runs (None: left as it is)."""
+    if value is None:
+        return contextlib.nullcontext()
+    return mock.patch.object(importlib.import_module(module), name, value)
+
+
 def trial_newton(cap):
     """check.trial_equilibrium.TRIAL_NEWTON set to ``cap`` (None: left as it is)."""
-    import check.trial_equilibrium as te
-
-    return contextlib.nullcontext() if cap is None else mock.patch.object(te, "TRIAL_NEWTON", int(cap))
+    return _setting("check.trial_equilibrium", "TRIAL_NEWTON", None if cap is None else int(cap))
 
 
 def trial_rule(text: str) -> tuple:
@@ -169,9 +175,7 @@ def trial_rule(text: str) -> tuple:
 
 def trial_refused(rule):
     """check.trial_equilibrium.TRIAL_REFUSED_STEP set to ``rule`` (None: left as it is)."""
-    import check.trial_equilibrium as te
-
-    return contextlib.nullcontext() if rule is None else mock.patch.object(te, "TRIAL_REFUSED_STEP", rule)
+    return _setting("check.trial_equilibrium", "TRIAL_REFUSED_STEP", rule)
 
 
 def _per_column():
@@ -186,9 +190,7 @@ _JACOBIAN_SOLVES = {"all-at-once": contextlib.nullcontext, "per-column": _per_co
 
 def _damping_hold(hold):
     """check.gauss_newton.HOLD_AFTER_RETRY set to ``hold`` (None: left as it is)."""
-    import check.gauss_newton as gn
-
-    return contextlib.nullcontext() if hold is None else mock.patch.object(gn, "HOLD_AFTER_RETRY", bool(hold))
+    return _setting("check.gauss_newton", "HOLD_AFTER_RETRY", None if hold is None else bool(hold))
 
 
 def _options(alpha, rounds) -> dict:

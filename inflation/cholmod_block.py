@@ -206,7 +206,7 @@ def solve_many(factor, b: np.ndarray, threads: int | None = None) -> np.ndarray 
     head = (ctypes.c_size_t * 2).from_address(ptr)  # cholmod_factor: n, then minor (= n when complete)
     if head[0] != n or head[1] != n:
         return None
-    if threads is None:
+    if threads is None:     # a small right-hand side stays one call: no need to read the load
         threads = 1 if n * k < MIN_SPLIT else idle_cores(samples=1)
     blocks = column_blocks(n, k, threads)
     if len(blocks) == 1:

@@ -56,8 +56,7 @@ the reason on stderr; {INTERRUPTED} interrupted, nothing written."""
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2, like every other user error
-        words = self.prog.split()
-        self.exit(2, f"{' '.join(['airmat', *words[1:]][:2])}: {message}\n")
+        self.exit(2, f"{' '.join(self.prog.split()[:2])}: {message}\n")   # "airmat" or "airmat design"
 
     def parse_args(self, args=None, namespace=None):
         """As argparse's, but an unknown option is refused by its subcommand's parser, so that the
