@@ -184,9 +184,16 @@ def summary_text(doc: dict, out) -> str:
     if doc.get("refine"):
         from airmat.cli.refine import refine_lines
         lines.extend(refine_lines(doc["refine"]))
-    lines.append(f"  wrote design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, cutting_list.csv, "
-                 f"preview.png, design.3dm, report.html to {out}")
+    lines.append(wrote_line(out))
     return "\n".join(lines)
+
+
+def wrote_line(out) -> str:
+    """The line naming the files of a published design folder (design.json first)."""
+    from airmat.atomic import listed
+    from design.design_io import OUTPUT_FILES
+
+    return f"  wrote {listed(out, OUTPUT_FILES)} to {out}"
 
 
 def run(args) -> int:

@@ -40,7 +40,7 @@ def add_parser(sub, parents):
 def run(args) -> int:
     from airmat.atomic import check_out_dir
     from airmat.cli._exit import not_converged
-    from airmat.cli.design import refine_not_converged
+    from airmat.cli.design import refine_not_converged, wrote_line
     from airmat.cli.sigint import staged
     from airmat.units import MM
     from check.refinement import check_refinable, refine
@@ -63,7 +63,10 @@ def run(args) -> int:
     with staged(args.out) as tmp:
         write_design(refinement.design, tmp)
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
-    print("\n".join([f"airmat refine: {design.name} -> {args.out}", *refine_lines(refinement.block())]))
+    print("\n".join([f"airmat refine: {design.name} -> {args.out}", *refine_lines(refinement.block()),
+                     wrote_line(args.out),
+                     f"  next: 'airmat inflate {args.out} --out DIR --resolution-mm {args.resolution_mm:g}' inflates "
+                     f"the refined lengths (the same deviation) with their lo95/hi95 envelope"]))
     return not_converged("refine", refine_not_converged(refinement))
 
 

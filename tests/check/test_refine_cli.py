@@ -16,7 +16,7 @@ from design.design_io import write_design  # noqa: E402
 case = pytest.fixture(scope="module", name="case")(off_case)
 
 
-def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case, tmp_path, capsys):
+def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case, tmp_path, capsys, wrote):
     src = tmp_path / "design"
     write_design(case, src)
     bad = tmp_path / "bad"
@@ -33,7 +33,10 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     assert (out / "cutting_list.csv").is_file()
     # 'airmat inflate' on the folder (the re-parametrized Ŝ read back from approx_surface.ply) keeps the promise
     assert doc["refine"]["reparametrization"]["moved_rms_mm"] > 0
-    assert "surface points moved" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "surface points moved" in text
+    assert wrote(text, out) == {p.name for p in out.iterdir()}        # every file of the folder, no other
+    assert f"'airmat inflate {out} --out DIR --resolution-mm 40'" in text
     assert main(["inflate", "-q", str(out), "--out", str(tmp_path / "inf"), "--resolution-mm", "40",
                  "--no-envelope"]) == 0
     assert "airmat refine" not in capsys.readouterr().out    # refined lengths: no hint to refine them

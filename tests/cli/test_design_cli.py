@@ -39,12 +39,13 @@ def _calibration_folder(folder, *, drop=None):
     return folder
 
 
-def test_design_of_a_target_file_writes_everything_and_is_reproducible(cylinder_obj, tmp_path, capsys):
+def test_design_of_a_target_file_writes_everything_and_is_reproducible(cylinder_obj, tmp_path, capsys, wrote):
     a, b = tmp_path / "a", tmp_path / "b"
     assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(a)]) == 0
     out = capsys.readouterr().out
     assert "UNCALIBRATED" in out and "constructible: yes" in out and str(a) in out
     assert {p.name for p in a.iterdir()} == FILES
+    assert wrote(out, a) == FILES                  # the summary names every file written, no other
     doc = json.loads((a / "design.json").read_text())
     assert doc["uncalibrated"] is True and doc["mattress"] == {"width_mm": 830.0, "height_mm": 740.0,
                                                                 "thickness_mm": 70.0}
