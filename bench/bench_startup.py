@@ -31,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 FIRST_PARTY = {"airmat", "calib", "design", "inflation", "check", "data_synthetic"}
 HEAVY = ("numpy", "scipy", "matplotlib", "ezdxf", "cvxopt", "igl", "trimesh", "emcee", "open3d", "skimage",
-         "design", "inflation", "check")
+         "dash", "plotly", "design", "inflation", "check")
 
 _HELP = "import contextlib, io\nfrom airmat.cli import main\n" \
         "with contextlib.redirect_stdout(io.StringIO()):\n    try:\n        main(['--help'])\n" \
@@ -41,6 +41,14 @@ _HELP = "import contextlib, io\nfrom airmat.cli import main\n" \
 def _mesh_module(tree: Path) -> str:
     """The inflation mesh module: ``inflation.mesh``, formerly ``design.inflation.mesh``."""
     return "inflation.mesh" if (tree / "inflation" / "mesh.py").exists() else "design.inflation.mesh"
+
+
+def _open3d(tree: Path) -> str:
+    """open3d with a ray-casting scene (the designer's closest points), as ``tree`` imports it."""
+    lazy = tree / "airmat" / "lazy.py"
+    if lazy.exists() and "def import_open3d" in lazy.read_text():
+        return "from airmat.lazy import import_open3d\nimport_open3d().t.geometry.RaycastingScene()\n"
+    return "import open3d\nopen3d.t.geometry.RaycastingScene()\n"
 
 
 def cases(tree: Path) -> list[tuple[str, str]]:
@@ -55,6 +63,7 @@ def cases(tree: Path) -> list[tuple[str, str]]:
         ("`airmat fit` imports", parser + "import airmat.cli.fit, calib.cylinder_fit, calib.scan_io"),
         ("`airmat calibrate` imports", parser + "import airmat.cli.calibrate, calib.calibrate, calib.plots, "
                                                 "calib.calibration_io"),
+        ("open3d for the closest points (`airmat design`, `refine`)", _open3d(tree)),
     ]
 
 

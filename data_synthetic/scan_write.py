@@ -119,7 +119,9 @@ def _las14(path, pts, rng):
 
 
 def _pcd(path, pts, flavour):
-    import open3d as o3d
+    from airmat.lazy import import_open3d
+
+    o3d = import_open3d()
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
     o3d.io.write_point_cloud(str(path), cloud, write_ascii=flavour == "ascii",

@@ -100,7 +100,9 @@ class MeshProjector:
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, threads: int | None = None):
-        import open3d as o3d
+        from airmat.lazy import import_open3d
+
+        o3d = import_open3d()
 
         vertices = np.asarray(vertices, dtype=float)
         self._faces = np.asarray(faces, dtype=np.int64)

@@ -57,7 +57,9 @@ def _check_ascii_rows(path: Path, header: dict) -> None:
 
 
 def _read_open3d(path: Path) -> np.ndarray:
-    import open3d as o3d
+    from airmat.lazy import import_open3d
+
+    o3d = import_open3d()
 
     o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
     cloud = o3d.io.read_point_cloud(str(path), format="pcd", remove_nan_points=False,

@@ -8,6 +8,7 @@ import sys
 import types
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from airmat.lazy import attach
@@ -66,3 +67,42 @@ def test_attach_refuses_a_name_listed_twice():
             attach("lazy_probe", {"a": ["x"], "b": ["x"]})
     finally:
         del sys.modules["lazy_probe"]
+
+
+def _fresh(code: str):
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def test_open3d_comes_without_its_visualization_until_that_is_used():
+    # the designer's closest points and a PCD round trip need open3d's geometry and I/O only; its
+    # visualization package pulls dash, plotly and IPython (0.4 s), loaded on first use instead
+    got = _fresh("""
+import json, sys, tempfile, os
+import numpy as np
+from design.closest_point import MeshProjector
+p = MeshProjector(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+point = p.closest(np.array([[0.2, 0.2, 1.0]])).points.round(6).tolist()
+from airmat.lazy import import_open3d
+o3d = import_open3d()
+path = os.path.join(tempfile.mkdtemp(), "a.pcd")
+o3d.io.write_point_cloud(path, o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.eye(3))))
+back = np.asarray(o3d.io.read_point_cloud(path).points).tolist()
+before = sorted(m for m in ("dash", "plotly", "IPython") if m in sys.modules)
+draw = callable(o3d.visualization.draw_plotly)          # first use: the real package
+import open3d.visualization as vis
+print(json.dumps([point, back, before, draw, vis is o3d.visualization, "dash" in sys.modules,
+                  hasattr(vis, "Visualizer")]))
+""")
+    assert got == [[[0.2, 0.2, 0.0]], np.eye(3).tolist(), [], True, True, True, True]
+
+
+def test_open3d_imported_first_is_returned_as_it_is():
+    got = _fresh("""
+import json, open3d
+from airmat.lazy import import_open3d
+print(json.dumps([import_open3d() is open3d, type(open3d.visualization).__name__]))
+""")
+    assert got == [True, "module"]
