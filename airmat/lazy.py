@@ -91,13 +91,13 @@ class _Deferred(types.ModuleType):
     """A stand-in for a package in ``sys.modules`` that imports the real one on first use.
 
     Only a name the stand-in lacks reaches ``__getattr__``, so the import system's own
-    look-ups (``__spec__``, ``__path__``) do not load it; the first other name replaces
-    the stand-in by the real package (in ``sys.modules`` and on the parent) and is
-    answered from it.
+    look-ups of its parent's import (``__spec__``) do not load it; the first other name,
+    or ``__path__`` (a submodule of it imported), replaces the stand-in by the real
+    package (in ``sys.modules`` and on the parent) and is answered from it.
     """
 
     def __getattr__(self, name):
-        if name.startswith("__"):
+        if name.startswith("__") and name != "__path__":      # __path__: a submodule imported through it
             raise AttributeError(name)
         if sys.modules.get(self.__name__) is self:
             del sys.modules[self.__name__]

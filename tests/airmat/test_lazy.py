@@ -99,6 +99,18 @@ print(json.dumps([point, back, before, draw, vis is o3d.visualization, "dash" in
     assert got == [[[0.2, 0.2, 0.0]], np.eye(3).tolist(), [], True, True, True, True]
 
 
+def test_a_submodule_of_the_deferred_visualization_imports():
+    got = _fresh("""
+import json, sys
+from airmat.lazy import import_open3d
+o3d = import_open3d()
+import open3d.visualization.draw_plotly as dp
+from open3d.visualization import to_mitsuba
+print(json.dumps([callable(dp.draw_plotly), callable(to_mitsuba), type(o3d.visualization).__name__]))
+""")
+    assert got == [True, True, "module"]
+
+
 def test_open3d_imported_first_is_returned_as_it_is():
     got = _fresh("""
 import json, open3d
