@@ -271,6 +271,10 @@ def read_calibration(folder):
     from calib.posterior import ParamSummary, Posterior
 
     folder = Path(folder)
+    if folder.is_file():
+        hint = f" ({folder.parent})" if folder.name == "calibration.json" else ""
+        raise InputError(f"is a file: give the folder that holds calibration.json{hint}, the --out folder of "
+                         "'airmat calibrate'", path=folder)
     if not folder.is_dir():
         raise InputError("calibration folder not found", path=folder)
     json_path = folder / "calibration.json"

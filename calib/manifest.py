@@ -76,6 +76,10 @@ def _rows(path: Path):
         text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputError("manifest not found", path=path) from None
+    except IsADirectoryError:
+        hint = f" ({path / 'manifest.csv'})" if (path / "manifest.csv").is_file() else ""
+        raise InputError(f"is a folder: give the manifest CSV{hint}, with the columns scan,l_mm,L_mm",
+                         path=path) from None
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(f"cannot read the manifest: {err}", path=path) from None
     lines = [(i, ln) for i, ln in enumerate(text.splitlines(), start=1)

@@ -127,6 +127,9 @@ def read_scan(path: str | os.PathLike, *, units: str | None = None, n_mesh_sampl
     path = Path(path)
     if units is not None and units not in SCAN_UNITS:
         raise InputError(f"unknown scan unit {units!r}; use one of {', '.join(SCAN_UNITS)}", path=path)
+    if path.is_dir():
+        raise InputError("is a folder: give one scan file ('airmat calibrate' reads a folder's scans through "
+                         "its manifest CSV)", path=path)
     if path.suffix.lower() not in SUPPORTED_SUFFIXES:
         raise InputError(f"unsupported scan format {path.suffix or '(no suffix)'!r}; "
                          f"use one of {', '.join(SUPPORTED_SUFFIXES)}", path=path)

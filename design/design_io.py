@@ -304,6 +304,10 @@ def read_design(folder) -> DesignResult:
     """
     folder = Path(folder)
     path = folder / "design.json"
+    if folder.is_file():
+        hint = f" ({folder.parent})" if folder.name == "design.json" else ""
+        raise InputError(f"is a file: give the folder that holds design.json{hint}, the --out folder of "
+                         "'airmat design'", path=folder)
     if not folder.is_dir():
         raise InputError("design folder not found (give the --out folder of 'airmat design')", path=folder)
     if not path.is_file():

@@ -252,6 +252,9 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     if units not in UNITS:
         raise InputError(f"unknown units {units!r}: use one of {', '.join(UNITS)}", path=path)
     ext = path.suffix.lower().lstrip(".")
+    if path.is_dir():
+        raise InputError(f"is a folder: give the target's mesh file ({', '.join('.' + f for f in FORMATS)})",
+                         path=path)
     if ext not in FORMATS:
         raise InputError(f"unsupported target format {path.suffix!r}: use one of "
                          f"{', '.join('.' + f for f in FORMATS)}", path=path)

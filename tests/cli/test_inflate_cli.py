@@ -119,6 +119,7 @@ def test_inflated_ply_overlays_the_approx_surface(tmp_path):
 
 @pytest.mark.parametrize("case,words", [
     ("missing_folder", "not found"),
+    ("the_json_file", "is a file: give the folder that holds design.json ("),
     ("no_json", "design.json"),
     ("missing_field", "mattress.thickness_mm"),
     ("outside", "k1-009-01"),
@@ -132,6 +133,9 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ca
     args = []
     if case == "no_json":
         folder.mkdir()
+    elif case == "the_json_file":          # the file given for its folder
+        make_design(folder)
+        folder = folder / "design.json"
     elif case == "missing_field":
         make_design(folder, drop="mattress.thickness_mm")
     elif case == "outside":
