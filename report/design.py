@@ -127,6 +127,36 @@ def _verdict(rep) -> str:
     return head + text + warn
 
 
+def _refine_section(b: dict) -> str:
+    """What the refinement through the inflation did: the deviation before and after, its iterations."""
+    from html import escape
+
+    def row(label, d):
+        return [label, f"{d['rms_mm']:.1f}", f"{d['rms_pct_diag']:.2f}", f"{d['max_mm']:.1f}"]
+
+    coarse = b.get("coarse_resolution_mm")
+    mesh = f"{b['resolution_mm']:g} mm" + (f" (the iterations on the {coarse:g} mm mesh)" if coarse else "")
+    rows = [row(f"before ({b.get('lengths_before', 'open-loop')} lengths)", b["deviation_before"]),
+            row("after (these lengths)", b["deviation_after"])]
+    text = (f"<h3>String lengths refined through the inflation</h3>\n"
+            f"<p>The lengths were adjusted together so that the inflated {escape(b['surface'])} face lands on "
+            f"Ŝ, at {mesh}: {b['iterations']} Gauss–Newton iterations, {b['seconds']:.1f} s; "
+            f"{escape(b['message'])}.</p>\n"
+            + html_table(["the named face against Ŝ", "RMS (mm)", "% of the diagonal", "max (mm)"], rows))
+    r = b.get("reparametrization")
+    if r is not None:
+        text += (f"<p>Ŝ's points moved {r['moved_rms_mm']:.1f} mm RMS along it (at most {r['moved_max_mm']:.1f} mm; "
+                 f"{r['off_surface_rms_mm']:.2f} mm RMS off it) to where the refined mattress puts them. "
+                 f"\"after\" is against that Ŝ, \"before\" against the designed one (against the moved Ŝ: "
+                 f"{r['deviation_before']['rms_mm']:.1f} mm RMS).</p>\n")
+    gone = ", ".join(b["dropped"]) or "none"
+    short = ", ".join(b["flagged"]) or "none"
+    text += (f"<p>Dropped (a string reached its flat span: not needed): {escape(gone)}. Flagged (at the "
+             f"shortest a tie allows): {escape(short)}. 'airmat inflate' at {b['resolution_mm']:g} mm reproduces "
+             f"the deviation after.</p>\n")
+    return text
+
+
 def design_part(result) -> Part:
     """The design section of the page.
 
@@ -163,6 +193,11 @@ def design_part(result) -> Part:
         body += "<h3>Table-1 figures of Ŝ and the verdict</h3>\n" + _table1(rep) + _verdict(rep)
         if not rep.constructible:
             banners.append(("bad", "The design is NOT constructible: " + "; ".join(rep.reasons)))
+    b = getattr(result, "refine", None)
+    if b:
+        body += _refine_section(b)
+        if not b["converged"]:
+            banners.append(("warn", f"The refinement did not converge: {b['message']}"))
     body += "<h3>Ŝ in 3D</h3>\n" + figure_html(surface_figure(result), "design-surface", height=600)
     if pat.strings:
         body += (f"<h3>Cutting list ({len(pat.strings)} strings; click a header to sort)</h3>\n"

@@ -136,3 +136,26 @@ def test_the_monte_carlo_band_and_its_statistics_are_on_the_page(run_objects):
     first = strings.split("<tbody>")[1]
     assert first.startswith(f"<tr><td>{result.pattern.strings[5].dash.id}</td>")
     assert monte_carlo_table(with_mc)[1] in html
+
+
+def test_a_refined_design_says_what_the_refinement_did(run_objects):
+    _, result, _ = run_objects
+    dev = lambda rms, pct, mx: {"rms_mm": rms, "rms_pct_diag": pct, "max_mm": mx}  # noqa: E731
+    block = {"converged": False, "iterations": 20, "seconds": 12.34, "resolution_mm": 20.0,
+             "coarse_resolution_mm": 40.0, "defect_corrections": 0, "alpha": 1e-3, "surface": "top",
+             "lengths_before": "open-loop", "deviation_before": dev(12.73, 1.25, 45.5),
+             "deviation_after": dev(7.11, 0.70, 29.2), "dropped": ["k1-003-01"], "flagged": [],
+             "message": "not converged after 20 iterations",
+             "reparametrization": {"rounds": 1, "moved_rms_mm": 3.4, "moved_max_mm": 5.7, "off_surface_rms_mm": 0.06,
+                                   "off_surface_max_mm": 0.4, "deviation_before": dev(13.1, 1.29, 46.0)}}
+    html = report_html(design=dataclasses.replace(result, refine=block))
+    section = html[html.index("String lengths refined through the inflation"):html.index("Ŝ in 3D")]
+    cells = re.findall(r"<td>(.*?)</td>", section)
+    assert cells[:8] == ["before (open-loop lengths)", "12.7", "1.25", "45.5", "after (these lengths)", "7.1", "0.70",
+                         "29.2"]
+    assert "20 Gauss–Newton iterations, 12.3 s" in section and "on the 40 mm mesh" in section
+    assert "Dropped (a string reached its flat span: not needed): k1-003-01" in section
+    assert "moved 3.4 mm RMS" in section and "against the moved Ŝ: 13.1 mm RMS" in section
+    assert "The refinement did not converge: not converged after 20 iterations" in banners_before_first_section(html)
+    # an open-loop design has no such section
+    assert "refined through the inflation" not in report_html(design=result)
