@@ -127,8 +127,9 @@ def summary_text(cal, folder=None) -> str:
              f"MCMC: {p.message}; acceptance {p.acceptance_fraction:.2f}",
              f"{len(cal.specimens)} specimens, L = {cal.curve.L * 1e3:g} mm"]
     if folder is not None:
-        lines.append(f"wrote calibration.json, posterior.npz, specimens.csv, curve.png, corner.png, report.html "
-                     f"to {folder}")
+        from airmat.atomic import listed
+
+        lines.append(f"wrote {listed(folder, ('calibration.json', 'posterior.npz', 'specimens.csv'))} to {folder}")
     return "\n".join(lines)
 
 

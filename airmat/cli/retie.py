@@ -14,7 +14,7 @@ def add_parser(sub, parents):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.atomic import check_out_dir, listed, staged_dir
     from design.design_io import read_design
     from design.export.retie_files import write_retie
     from design.retie import retie_plan
@@ -29,5 +29,5 @@ def run(args) -> int:
     c = doc["counts"]
     print(f"airmat retie: {len(a.pattern.strings)} strings -> {len(b.pattern.strings)}: keep {c['keep']} "
           f"(same nodes), re-tie {c['retie']}, remove {c['remove']}, add {c['add']}\n"
-          f"  wrote retie.json, retie.csv, retie.png to {args.out}")
+          f"  wrote {listed(args.out, ('retie.json',))} to {args.out}")
     return 0

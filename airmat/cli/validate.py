@@ -92,7 +92,7 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir
+    from airmat.atomic import check_out_dir, listed
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
@@ -144,7 +144,7 @@ def run(args) -> int:
         _print_calibrated(rows, delta, layout.thickness if d is None else d)
     else:
         _print_plain(rows)
-    print(f"wrote validate.json, validate.csv, validate.png to {args.out}")
+    print(f"wrote {listed(args.out, ('validate.json',))} to {args.out}")
     return not_converged("validate", [f"inflation at l/L = {p.l_over_L:g}: {p.message}"
                                       for p in points if not p.converged])
 

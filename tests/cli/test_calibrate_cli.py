@@ -56,7 +56,7 @@ def test_synth_bad_input(tmp_path, capsys, args, match):
     assert not out.exists()
 
 
-def test_calibrate_writes_every_file_with_the_fields(synth_set, tmp_path, capsys):
+def test_calibrate_writes_every_file_with_the_fields(synth_set, tmp_path, capsys, wrote):
     out = tmp_path / "cal"
     code = main(["calibrate", str(synth_set / "manifest.csv"), "--out", str(out),
                  "--truth", str(synth_set / "truth.json"), "-q"])
@@ -64,7 +64,7 @@ def test_calibrate_writes_every_file_with_the_fields(synth_set, tmp_path, capsys
     stdout = capsys.readouterr().out
     assert "Delta =" in stdout and "95%" in stdout and str(out) in stdout
     assert {p.name for p in out.iterdir()} == {"calibration.json", "posterior.npz", "specimens.csv",
-                                               "curve.png", "corner.png", "report.html"}
+                                               "curve.png", "corner.png", "report.html"} == wrote(stdout, out)
     assert "κ₁(l/L)" in (out / "report.html").read_text(encoding="utf-8")
     doc = json.loads((out / "calibration.json").read_text())
     for name in ("delta_mm", "d_mm", "sigma_per_m"):

@@ -35,7 +35,7 @@ def make_design(folder, dashes=None, drop=None):
     return folder
 
 
-def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
+def test_inflate_writes_files_with_the_fields(tmp_path, capsys, wrote):
     design = make_design(tmp_path / "design")
     out = tmp_path / "out"
     assert main(["inflate", str(design), "--out", str(out), "--resolution-mm", "50"]) == 0
@@ -56,6 +56,7 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys):
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "Inflation check" in page and "k1-002-01" in page and "did NOT converge" not in page
     printed = capsys.readouterr().out
+    assert wrote(printed, out) == {p.name for p in out.iterdir()}   # every file, no other
     assert "deviation from S-hat (bottom face)" in printed
     assert f"'airmat refine {design} --out DIR'" in printed      # open-loop lengths: where to go next
     # top strings only: the named face is the bottom one (it keeps its length); every face for reference

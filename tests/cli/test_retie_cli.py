@@ -20,13 +20,15 @@ def designs(tmp_path_factory):
     return paths
 
 
-def test_same_design_keeps_every_string(designs, tmp_path, capsys):
+def test_same_design_keeps_every_string(designs, tmp_path, capsys, wrote):
     out = tmp_path / "out"
     assert main(["retie", str(designs["a"]), str(designs["a"]), "--out", str(out)]) == 0
     doc = json.loads((out / "retie.json").read_text())
     n = len(json.loads((designs["a"] / "design.json").read_text())["dashes"])
     assert doc["counts"] == {"keep": n, "retie": 0, "remove": 0, "add": 0}
-    assert f"keep {n} (same nodes)" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"keep {n} (same nodes)" in printed
+    assert wrote(printed, out) == {p.name for p in out.iterdir()} == {"retie.json", "retie.csv", "retie.png"}
 
 
 def test_two_shapes_account_for_every_string(designs, tmp_path):

@@ -51,7 +51,7 @@ def test_missing_calibration_exits_2_and_writes_nothing(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_validate_with_a_calibration_reproduces_its_curve(tmp_path, capsys, monkeypatch):
+def test_validate_with_a_calibration_reproduces_its_curve(tmp_path, capsys, monkeypatch, wrote):
     # synth -> calibrate -> validate --calibration: the table and the plot of both curves, each simulated
     # κ₁ within 5 % of the calibrated median at 50 mm (the map built at that resolution)
     import json
@@ -63,10 +63,12 @@ def test_validate_with_a_calibration_reproduces_its_curve(tmp_path, capsys, monk
     assert main(["calibrate", str(tmp_path / "set" / "manifest.csv"), "--out", str(tmp_path / "cal"),
                  "--walkers", "16", "--max-steps", "200", "-q"]) in (0, 3)
     out = tmp_path / "validate"
+    capsys.readouterr()
     assert main(["validate", "--out", str(out), "--calibration", str(tmp_path / "cal"), "--resolution-mm", "50",
                  "--l-over-L", "0.4,0.6,0.8", "--jobs", "2"]) == 0
     printed = capsys.readouterr().out
     assert "calibrated κ₁ median" in printed and "difference" in printed
+    assert wrote(printed, out) == {p.name for p in out.iterdir()} >= {"validate.json", "validate.csv", "validate.png"}
     doc = json.loads((out / "validate.json").read_text())
     k = np.array([p["kappa_section_string_face_per_m"] for p in doc["points"]])
     k_cal = np.array([p["kappa_eq3_per_m"] for p in doc["points"]])
