@@ -129,5 +129,6 @@ def run(args) -> int:
         atomic_write_text(tmp / "gallery.md", table + "\n")
         results["timings_s"] = timings  # the one field that differs between runs of the same inputs
         atomic_write_text(tmp / "gallery.json", dumps(results, indent=2) + "\n")
-    print(f"\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}")
+    print(f"\nwrote {out / 'gallery.md'} and {out / 'gallery.json'}, and each preset's design and inflate "
+          f"folders under {out} ({', '.join(names)})")
     return not_converged("gallery", what)

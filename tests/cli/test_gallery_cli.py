@@ -18,6 +18,8 @@ def test_gallery_row_matches_the_design_and_inflation_files(tmp_path):
     # then where the files went
     printed = stdout.getvalue().splitlines()
     assert printed[:3] == table and printed[3] == "" and printed[4].startswith("wrote ") and len(printed) == 5
+    assert printed[4].endswith(f"each preset's design and inflate folders under {tmp_path} (saddle)")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gallery.json", "gallery.md", "saddle"]
     design = json.loads((tmp_path / "saddle" / "design" / "design.json").read_text())
     inflate = json.loads((tmp_path / "saddle" / "inflate" / "inflate.json").read_text())
     cells = [c.strip() for c in table[2].strip("|").split("|")]
