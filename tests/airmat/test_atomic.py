@@ -404,3 +404,13 @@ def test_a_run_staged_inside_another_runs_staging_folder_does_not_wait_for_itsel
     assert (tmp_path / "demo" / "synth" / "a.txt").read_text() == "scan"
     assert (tmp_path / "demo" / "b.txt").read_text() == "report"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
+
+
+def test_listed_names_the_folder_first_given_then_sorted_subfolders_marked(tmp_path):
+    from airmat.atomic import listed
+
+    for name in ("b.png", "a.csv", "main.json", "z.txt"):
+        (tmp_path / name).write_text("x")
+    (tmp_path / "sub").mkdir()
+    assert listed(tmp_path, ("main.json", "missing.ply", "z.txt")) == "main.json, z.txt, a.csv, b.png, sub/"
+    assert listed(tmp_path) == "a.csv, b.png, main.json, sub/, z.txt"
