@@ -65,7 +65,7 @@ try:  # POSIX only; without it runs are not locked against each other
 except ImportError:  # pragma: no cover - Windows
     fcntl = None
 
-__all__ = ["staged_dir", "check_out_dir", "sweep_stale", "atomic_write_bytes", "atomic_write_text", "listed"]
+__all__ = ["staged_dir", "check_out_dir", "sweep_stale", "atomic_write_bytes", "atomic_write_text"]
 
 log = logging.getLogger(__name__)
 
@@ -438,14 +438,3 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` atomically."""
     atomic_write_bytes(path, text.encode("utf-8"))
 
-
-def listed(folder: str | os.PathLike, first: Iterable[str] = ()) -> str:
-    """The files a run published in ``folder``, as the list of its "wrote ... to DIR" line.
-
-    The names in ``first`` that are there come first, in that order, then the others
-    sorted; a sub-folder ends with ``/``. Read from the folder, so the line names what the
-    run wrote, options included (e.g. ``design --pdf A4``).
-    """
-    names = {p.name + ("/" if p.is_dir() else "") for p in Path(folder).iterdir()}
-    lead = [n for n in first if n in names]
-    return ", ".join(lead + sorted(names.difference(lead)))

@@ -127,7 +127,7 @@ def summary_text(cal, folder=None) -> str:
              f"MCMC: {p.message}; acceptance {p.acceptance_fraction:.2f}",
              f"{len(cal.specimens)} specimens, L = {cal.curve.L * 1e3:g} mm"]
     if folder is not None:
-        from airmat.atomic import listed
+        from airmat.listing import listed
 
         lines.append(f"wrote {listed(folder, ('calibration.json', 'posterior.npz', 'specimens.csv'))} to {folder}")
     return "\n".join(lines)

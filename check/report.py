@@ -245,7 +245,7 @@ def summary_text(doc: dict, out) -> str:
         lines.append(line)
         if not mc["sigma_source"].startswith("posterior"):
             lines.append(f"  Monte-Carlo scatter sigma: {mc['sigma_source']}")
-    from airmat.atomic import listed
+    from airmat.listing import listed
 
     lines.append(f"  wrote {listed(out, ('inflate.json', 'inflated.ply', 'inflated.3dm'))} to {out}")
     return "\n".join(lines)

@@ -190,7 +190,7 @@ def summary_text(doc: dict, out) -> str:
 
 def wrote_line(out) -> str:
     """The line naming the files of a published design folder (design.json first)."""
-    from airmat.atomic import listed
+    from airmat.listing import listed
     from design.design_io import OUTPUT_FILES
 
     return f"  wrote {listed(out, OUTPUT_FILES)} to {out}"

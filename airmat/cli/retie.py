@@ -14,7 +14,8 @@ def add_parser(sub, parents):
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, listed, staged_dir
+    from airmat.atomic import check_out_dir, staged_dir
+    from airmat.listing import listed
     from design.design_io import read_design
     from design.export.retie_files import write_retie
     from design.retie import retie_plan

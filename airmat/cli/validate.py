@@ -92,7 +92,8 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
 
 
 def run(args) -> int:
-    from airmat.atomic import check_out_dir, listed
+    from airmat.atomic import check_out_dir
+    from airmat.listing import listed
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM

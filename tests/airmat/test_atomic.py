@@ -407,7 +407,7 @@ def test_a_run_staged_inside_another_runs_staging_folder_does_not_wait_for_itsel
 
 
 def test_listed_names_the_folder_first_given_then_sorted_subfolders_marked(tmp_path):
-    from airmat.atomic import listed
+    from airmat.listing import listed
 
     for name in ("b.png", "a.csv", "main.json", "z.txt"):
         (tmp_path / name).write_text("x")
