@@ -16,12 +16,22 @@ With ``samples=K`` it also inflates K Monte-Carlo samples of the string lengths
 scatter), in the same batch as the three runs, and summarizes their deviations on
 the same face (:func:`check.monte_carlo.summarize`).
 
+A refined design (:mod:`check.refinement`) is inflated the way it was refined:
+its open-loop strings (``design.open_loop``) from the flat mattress, and that
+equilibrium carried on to each run's strings
+(:func:`~inflation.simulate.inflate_from`; ``DesignCheck.open_loop``). The
+refinement's trial equilibria all lie on that path, each started from the last
+one; from the flat mattress the same lengths can settle in another
+arrangement of the wrinkles (vault1: 7.1 instead of 6.4 mm RMS, README,
+Refinement).
+
 The three runs are independent, so ``workers > 1`` runs them in that many
 Dask worker processes, or ``scheduler`` on an existing cluster
 (:func:`~inflation.simulate.inflate_many`, :mod:`inflation.executor`).
 An inflation already made the check's way (a :class:`KnownRun`, e.g. the
 verification of :func:`check.refinement.refine`) stands in for the median run
-when it is that run: same strings, mesh, parameters and tolerance.
+(or the open-loop equilibrium) when it is that run: same strings, start, mesh,
+parameters and tolerance.
 """
 
 from __future__ import annotations
@@ -37,10 +47,11 @@ from check.length_map import length_map
 from check.monte_carlo import draw, summarize
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
-from inflation.simulate import INFLATE_TOL, Inflation, inflate_many
+from inflation.simulate import INFLATE_TOL, Inflation, inflate, inflate_many
 from inflation.strings import StringSet, check_resolution
 
-__all__ = ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings", "named_face", "LENGTH_KEYS"]
+__all__ = ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings", "open_loop_strings", "named_face",
+           "LENGTH_KEYS"]
 
 log = logging.getLogger(__name__)
 
@@ -50,7 +61,8 @@ LENGTH_KEYS = ("median", "lo95", "hi95")
 
 @dataclass(frozen=True)
 class KnownRun:
-    """An inflation made the check's way (flat start, ramp, continuation), to stand in for a run of :func:`check`.
+    """An inflation made the check's way (flat start, ramp, continuation; or carried on from ``start``'s
+    equilibrium), to stand in for a run of :func:`check`.
 
     Attributes
     ----------
@@ -60,19 +72,31 @@ class KnownRun:
     params : Parameters
     tol : float
         Its force residual.
+    start : StringSet, optional
+        The strings whose equilibrium it was carried on from (a refined design's open loop,
+        :func:`open_loop_strings`); None: inflated from the flat mattress.
     """
 
     strings: StringSet
     inflation: Inflation
     params: Parameters
     tol: float
+    start: StringSet | None = None
 
-    def stands_for(self, strings: StringSet, mesh, params: Parameters, tol: float) -> bool:
-        """True when this is the inflation :func:`check` would make of ``strings`` on ``mesh``."""
-        mine, other, m = self.strings, strings, self.inflation.mesh
+    def stands_for(self, strings: StringSet, mesh, params: Parameters, tol: float,
+                   start: StringSet | None = None) -> bool:
+        """True when this is the inflation :func:`check` would make of ``strings`` on ``mesh``, from the
+        equilibrium of ``start`` (None: from the flat mattress)."""
+        m = self.inflation.mesh
         return (self.params == params and self.tol == tol and m is not None
                 and m.n_vertices == mesh.n_vertices and np.array_equal(m.spacing, mesh.spacing)
-                and all(np.array_equal(getattr(mine, f), getattr(other, f)) for f in ("a", "b", "top", "rest")))
+                and _same(self.strings, strings) and _same(self.start, start))
+
+
+def _same(mine: StringSet | None, other: StringSet | None) -> bool:
+    if mine is None or other is None:
+        return mine is None and other is None
+    return all(np.array_equal(getattr(mine, f), getattr(other, f)) for f in ("a", "b", "top", "rest"))
 
 
 def design_strings(design, which: str = "median", *, lengths=None) -> StringSet:
@@ -94,13 +118,35 @@ def design_strings(design, which: str = "median", *, lengths=None) -> StringSet:
         not slip, Equation 3's l*); with a calibrated map, the rest length at which
         the simulated specimen bends as the calibrated Equation 3 says.
     """
-    strings = design.pattern.strings
+    lengths = length_map(design.calibration) if lengths is None else lengths
+    return _string_set(design.pattern.strings, which, lengths)
+
+
+def open_loop_strings(design, *, lengths=None) -> StringSet | None:
+    """The open-loop strings a refined design's inflations start from, at their median lengths (SI).
+
+    :func:`check` inflates them from the flat mattress and carries that equilibrium on to
+    each run's strings (:func:`~inflation.simulate.inflate_from`), the path the
+    refinement's equilibria took. ``lengths`` as in :func:`design_strings`.
+
+    Returns
+    -------
+    StringSet or None
+        None when the design was not refined (its runs start from the flat mattress).
+    """
+    if design.open_loop is None:
+        return None
+    lengths = length_map(design.calibration) if lengths is None else lengths
+    return _string_set(design.open_loop, "median", lengths)
+
+
+def _string_set(strings, which: str, lengths) -> StringSet:
+    """TensionStrings as the simulator takes them: ends on Ω and l* = ``lengths.to_simulated(l_which)`` (m)."""
     k = len(strings)
     a = np.array([s.dash.a for s in strings], float).reshape(k, 2)
     b = np.array([s.dash.b for s in strings], float).reshape(k, 2)
     top = np.array([s.side == "top" for s in strings], bool)
     length = np.array([getattr(s, f"l_{which}") for s in strings], float)
-    lengths = length_map(design.calibration) if lengths is None else lengths
     return StringSet(a, b, top, lengths.to_simulated(length),
                      tuple(s.dash.id for s in strings))
 
@@ -150,6 +196,9 @@ class DesignCheck:
         The real -> simulated string length map the runs used.
     monte_carlo : check.monte_carlo.MonteCarloResult or None
         The Monte-Carlo samples' deviations on the same face, when asked for.
+    open_loop : inflation.simulate.Inflation or None
+        A refined design's open-loop equilibrium (from the flat mattress), which every run was
+        carried on from; None: every run was inflated from the flat mattress.
     """
 
     design: object
@@ -158,6 +207,7 @@ class DesignCheck:
     surface: str = "mid"
     lengths: object = None
     monte_carlo: object = None
+    open_loop: Inflation | None = None
 
     @property
     def converged(self) -> bool:
@@ -227,9 +277,10 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         Seed of the Monte-Carlo samples.
     tolerance : float, optional
         T (m) of the Monte-Carlo's P(RMS <= T).
-    known : KnownRun, optional
-        Used as the median run instead of inflating again when it is that run
-        (:meth:`KnownRun.stands_for`; e.g. ``Refinement.verification``); otherwise ignored.
+    known : KnownRun or sequence of KnownRun, optional
+        Used as the median run (or a refined design's open-loop equilibrium) instead of
+        inflating again when it is that run (:meth:`KnownRun.stands_for`; e.g.
+        ``Refinement.known_runs``); otherwise ignored.
 
     Returns
     -------
@@ -252,15 +303,28 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     draws = draw(design, samples, seed, lengths=lengths) if samples > 0 else None
     mc_sets = [replace(string_sets[0], rest=rest) for rest in draws.rest] if draws is not None else []
     to_run = string_sets + mc_sets
-    reuse = known is not None and known.stands_for(string_sets[0], mesh, params, INFLATE_TOL) and \
-        (known.inflation.converged or not strict)
-    if reuse:
-        log.debug("the median run is the known inflation (%d Newton iterations): not run again", known.inflation.n_iter)
+    knowns = () if known is None else (known,) if isinstance(known, KnownRun) else tuple(known)
+
+    def known_run(strings, start):
+        return next((k for k in knowns if k.stands_for(strings, mesh, params, INFLATE_TOL, start)
+                     and (k.inflation.converged or not strict)), None)
+
+    start_set = open_loop_strings(design, lengths=lengths)
+    base = None
+    if start_set is not None:       # a refined design: from its open-loop equilibrium, as it was refined
+        kb = known_run(start_set, None)
+        base = kb.inflation if kb is not None else \
+            inflate(mesh, start_set if len(start_set) else None, params=params, strict=strict)
+        log.info("open-loop lengths: %d Newton iterations in %.1f s%s; the runs start from there", base.n_iter,
+                 base.seconds, " (known)" if kb is not None else "")
+    reuse = known_run(string_sets[0], start_set)
+    if reuse is not None:
+        log.debug("the median run is the known inflation (%d Newton iterations): not run again", reuse.inflation.n_iter)
         to_run = to_run[1:]
     inflations = inflate_many(mesh, [s if len(s) else None for s in to_run], params=params,
-                              strict=strict, workers=workers, scheduler=scheduler)
-    if reuse:
-        inflations = [replace(known.inflation, mesh=mesh, levels=())] + inflations
+                              strict=strict, workers=workers, scheduler=scheduler, start=base)
+    if reuse is not None:
+        inflations = [replace(reuse.inflation, mesh=mesh, levels=())] + inflations
     inflations, mc_runs = inflations[:len(which_runs)], inflations[len(which_runs):]
     a, b = string_sets[0].a, string_sets[0].b
     polylines = [s.dash.polyline for s in design.pattern.strings]
@@ -289,4 +353,4 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         log.info("Monte-Carlo, %d samples: RMS median %.1f mm, 95th percentile %.1f mm", samples,
                  st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
     return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths,
-                       monte_carlo=mc)
+                       monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh, levels=()))

@@ -17,6 +17,9 @@ REFINE_FLAG = "refine_at_shortest"
 def refined_design(design, l_real, dropped, flagged):
     """The design with new real median lengths (lo95 / hi95 shifted alike), dropped strings removed.
 
+    Its ``open_loop`` keeps the strings as they were before any refinement (a design
+    refined again keeps the first open loop): its inflations start from them.
+
     Parameters
     ----------
     design : design.pipeline.DesignResult
@@ -47,7 +50,8 @@ def refined_design(design, l_real, dropped, flagged):
         notes += more
     pattern = dataclasses.replace(design.pattern, strings=tuple(new), n_no_string=n_no, notes=notes,
                                   coverage=coverage)
-    return dataclasses.replace(design, pattern=pattern)
+    open_loop = design.open_loop if design.open_loop is not None else design.pattern.strings
+    return dataclasses.replace(design, pattern=pattern, open_loop=open_loop)
 
 
 def _coverage_after(design, strings):

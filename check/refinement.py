@@ -65,9 +65,14 @@ deviation from the designed Ŝ (the refine block also gives the open loop
 against the re-parametrized one). Measured at 20 mm (README,
 ``bench/bench_refine.py --reparametrize 0 1``).
 
-The refined lengths are checked by a fresh inflation (the check's own path,
-flat start and ramp), which gives ``deviation_after``; if it is worse than
-the open-loop deviation the open-loop lengths are kept (``converged=False``).
+The refined lengths are checked by the check's own inflation of a refined
+design (:func:`check.inflation_check.check`): the open-loop equilibrium (the
+first inflation, from the flat mattress) carried on to the refined lengths at
+the target resolution (:func:`~inflation.simulate.inflate_from`), the path
+every trial equilibrium took. It gives ``deviation_after``; if that is worse
+than the open-loop deviation the open-loop lengths are kept
+(``converged=False``). A design refined again starts from its first open loop
+(``design.open_loop``), as its check does.
 SI units inside; the ``refine`` block of design.json is in mm.
 """
 
@@ -83,7 +88,7 @@ import numpy as np
 from airmat.errors import InputError
 from check.compare import Deviation, deviation
 from check.gauss_newton import gauss_newton
-from check.inflation_check import KnownRun, design_strings, named_face
+from check.inflation_check import KnownRun, design_strings, named_face, open_loop_strings
 from check.length_map import length_map
 from check.refine_objective import face_fit
 from check.refined_design import REFINE_FLAG, refined_design
@@ -93,7 +98,7 @@ from check.trial_equilibrium import SOLVE_NEWTON, coarse_start, correct, make_pr
 from inflation.mesh import build_mattress_mesh
 from inflation.model import Parameters
 from inflation.prolong import prolong
-from inflation.simulate import INFLATE_TOL, inflate
+from inflation.simulate import INFLATE_TOL, inflate, inflate_from
 from inflation.strings import check_resolution
 
 __all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
@@ -132,7 +137,8 @@ class Refinement:
     inflation_seconds : float
         One inflation of the open-loop design at this resolution (for the time ratio).
     verification_seconds : float
-        The fresh inflation of the refined lengths that gives ``deviation_after``.
+        The inflation of the refined lengths that gives ``deviation_after``: the open-loop
+        equilibrium carried on to them (the check's path of a refined design).
     resolution : float
         Mesh edge length (m).
     surface : str
@@ -146,6 +152,9 @@ class Refinement:
     verification : check.inflation_check.KnownRun or None
         The inflation that gave ``deviation_after`` (the check's own): :func:`check.inflation_check.check`
         of ``design`` at this resolution takes it as its median run (``known=``) instead of inflating again.
+    open_loop_run : check.inflation_check.KnownRun or None
+        The open-loop inflation from the flat mattress that the verification was carried on from
+        (the one ``inflation_seconds`` timed): the check's start for the refined design.
     reparametrization : check.reparametrize.Reparametrization or None
         The last round's Ŝ in the realized metric (``design.approx.xyz`` is its ``xyz``, and
         ``deviation_after`` is measured against it); None when Ŝ stayed as designed.
@@ -178,10 +187,17 @@ class Refinement:
     corrections: tuple = ()
     alpha: float = float("nan")
     verification: KnownRun | None = None
+    open_loop_run: KnownRun | None = None
     reparametrization: Reparametrization | None = None
     deviation_before_reparametrized: Deviation | None = None
     reparametrize_rounds: int = 0
     lengths_before: str = "open-loop"
+
+    @property
+    def known_runs(self) -> tuple:
+        """The verification and the open-loop inflation it started from: what :func:`check.inflation_check.check`
+        of ``design`` at this resolution (``known=``) need not inflate again."""
+        return tuple(k for k in (self.verification, self.open_loop_run) if k is not None)
 
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
@@ -331,12 +347,14 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     if reparametrize < 0:
         raise InputError(f"refinement: reparametrize must be 0 or more rounds, got {reparametrize}")
     strings = design_strings(design, "median")
+    start = open_loop_strings(design)      # a refined design is inflated from its open loop on
     mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
                                resolution=resolution)
     named = named_face(design, strings) if surface == "auto" else surface
     ti = time.perf_counter()
-    first = inflate(mesh, strings, params=params, tol=tol, keep_levels=True)
+    base = inflate(mesh, strings if start is None else start, params=params, tol=tol, keep_levels=True)
     t_inflate = time.perf_counter() - ti
+    first = base if start is None else inflate_from(base, strings, params=params, tol=tol)
     dev0 = deviation(first, design.approx.xyz, design.approx.uv, named)
     prob = make_problem(mesh, strings, params, design, named, tol)
     lo, hi = _bounds(design, strings)
@@ -356,7 +374,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         # by the difference of the two meshes' faces at the open-loop lengths
         cmesh = build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=coarse)
         cprob = make_problem(cmesh, strings, params, design, named, tol)
-        cstart = coarse_start(cprob, first, strings, params, tol)
+        cstart = coarse_start(cprob, base, strings, params, tol)
         cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz     # the face here minus the coarse one
         cprob.tol = trial_tol
         gc = gauss_newton(cprob, l_open, l_open, cstart.xyz, lo, hi, max_iter=stage, **kw)
@@ -397,11 +415,13 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         refined = dataclasses.replace(refined, approx=dataclasses.replace(refined.approx, xyz=approx_xyz))
     tv = time.perf_counter()
     refined_strings = design_strings(refined, "median")
-    final = inflate(mesh, refined_strings if len(refined_strings) else None, params=params, tol=tol)
+    # the check's path of a refined design (check.inflation_check): from the open-loop equilibrium on
+    final = inflate_from(base, refined_strings if len(refined_strings) else None, params=params, tol=tol)
     t_verify = time.perf_counter() - tv
     dev1 = deviation(final, approx_xyz, design.approx.uv, named)
     dev0_new = deviation(first, approx_xyz, design.approx.uv, named) if reps else None
-    known = KnownRun(refined_strings, final, params, tol)
+    base_strings = strings if start is None else start
+    known = KnownRun(refined_strings, final, params, tol, start=base_strings)
     # the design the user gets is never reported worse than the open-loop one (each against its own Ŝ)
     if not final.converged or dev1.rms > dev0.rms:
         message = (f"the refined lengths inflate to {dev1.rms * 1e3:.1f} mm RMS, not better than the "
@@ -409,7 +429,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         converged, l_best, dev1 = False, l_open, dev0
         dropped, flagged = np.zeros(len(l_best), bool), np.zeros(len(l_best), bool)
         refined = dataclasses.replace(design)
-        known = KnownRun(strings, first, params, tol)
+        known = KnownRun(strings, first, params, tol, start=start)
         reps, dev0_new = [], None
     ids = strings.ids
     res = Refinement(design=refined, converged=converged, iterations=gn["iterations"],
@@ -420,7 +440,8 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
                      flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
                      verification_seconds=t_verify, resolution=resolution, surface=named,
                      coarse_resolution=coarse, corrections=tuple(fine_rms), alpha=float(alpha),
-                     verification=known, reparametrization=reps[-1] if reps else None,
+                     verification=known, open_loop_run=KnownRun(base_strings, base, params, tol),
+                     reparametrization=reps[-1] if reps else None,
                      deviation_before_reparametrized=dev0_new, reparametrize_rounds=len(reps),
                      lengths_before=given)
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",

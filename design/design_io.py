@@ -30,7 +30,7 @@ from airmat.npz_bytes import npz_bytes
 from airmat.units import MM, mm_to_m
 from design.calibration_source import CalibrationSource
 from design.constructibility import ConstructibilityReport
-from design.export.design_json import design_document, read_design_json, write_design_json
+from design.export.design_json import dash_entry, design_document, read_design_json, write_design_json
 from design.mattress import Mattress
 from design.pattern import Dash, Pattern, TensionString
 from design.pipeline import DesignParams, DesignResult
@@ -83,6 +83,8 @@ def document(result: DesignResult) -> dict:
                              "message": str(a.relax.message)}
     if result.refine is not None:   # lengths refined through the inflation (check.refine)
         doc["refine"] = dict(result.refine)
+        if result.open_loop is not None:     # what its inflations start from (check.inflation_check)
+            doc["refine"]["open_loop_dashes"] = [dash_entry(s, polyline=False) for s in result.open_loop]
     return doc
 
 
@@ -277,12 +279,21 @@ def _report(doc: dict, path: Path) -> ConstructibilityReport | None:
         raise InputError(f"report lacks field {err}", path=path) from None
 
 
-def _refine_block(doc: dict, path: Path) -> dict | None:
-    """design.json's ``refine`` block (written by a refinement), or None."""
+def _refine_block(doc: dict, path: Path, width: float, height: float) -> tuple:
+    """design.json's ``refine`` block (written by a refinement) without its ``open_loop_dashes``, and those
+    strings (the open-loop ones a refined design's inflations start from); (None, None) when not refined."""
     block = doc.get("refine")
-    if block is not None and not isinstance(block, dict):
+    if block is None:
+        return None, None
+    if not isinstance(block, dict):
         raise InputError(f"field 'refine' must be an object, got {block!r}", path=path)
-    return block
+    block = dict(block)
+    dashes = block.pop("open_loop_dashes", None)
+    if dashes is None:
+        return block, None
+    if not isinstance(dashes, list):
+        raise InputError("field 'refine.open_loop_dashes' must be a list", path=path)
+    return block, tuple(_string(dash, k, path, width, height) for k, dash in enumerate(dashes))
 
 
 def read_design(folder) -> DesignResult:
@@ -337,9 +348,10 @@ def read_design(folder) -> DesignResult:
     pattern = Pattern(strings=strings, L=params.L,
                       n_dashes=dict(summary.get("dashes", {})), n_no_string=dict(summary.get("no_string", {})),
                       notes=tuple(summary.get("notes", ())), coverage=summary.get("coverage"))
+    refine, open_loop = _refine_block(doc, path, mattress.width, mattress.height)
     xyz, uv, faces = read_approx_surface(folder / "approx_surface.ply")
     approx = ApproxSurface(target=None, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
                            report=_report(doc, path))
     return DesignResult(name=str(doc.get("name", folder.name)), approx=approx, pattern=pattern,
                         calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)),
-                        source=str(folder), refine=_refine_block(doc, path))
+                        source=str(folder), refine=refine, open_loop=open_loop)

@@ -154,6 +154,10 @@ class DesignResult:
     refine : dict or None
         The ``refine`` block of design.json (mm) when the lengths were refined through the
         inflation (:func:`check.refine.refine`), else None.
+    open_loop : tuple of design.pattern.TensionString or None
+        A refined design's strings before any refinement, at their open-loop lengths, the
+        dropped ones included: its inflations start from these strings' equilibrium and carry it
+        on to the refined lengths (:func:`check.inflation_check.check`). None when not refined.
     """
 
     name: str
@@ -167,6 +171,7 @@ class DesignResult:
     source: str | None = None
     timings: dict = field(default_factory=dict, compare=False)
     refine: dict | None = None
+    open_loop: tuple | None = field(default=None, repr=False)
 
     @property
     def mattress(self):

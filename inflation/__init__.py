@@ -6,7 +6,8 @@ Public API (SI units: metres, pascals, 1/m):
 - :class:`StringSet` -- external strings on Ω with their simulated lengths l* (``strings``).
 - :class:`Parameters`, :func:`build_model` -- the terms of U_B (``model``, ``energy``).
 - :func:`solve` -- Newton / trust-region minimisation of U_B (``solver``, ``cholesky``).
-- :func:`inflate`, :func:`inflate_many` -- string ramp + coarse-to-fine solves (``simulate``, ``prolong``).
+- :func:`inflate`, :func:`inflate_many` -- string ramp + coarse-to-fine solves (``simulate``, ``prolong``);
+  :func:`inflate_from` -- an equilibrium carried on to other strings (a refined design's path).
 - :func:`map_shared` -- the one executor of independent runs: serial or on Dask (``executor``).
 
 Comparing an inflation with Ŝ is the check's job (the ``check`` package).
@@ -22,6 +23,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "strings": ["StringSet"],
     "model": ["Parameters", "build_model"],
     "solver": ["SolveResult", "solve"],
-    "simulate": ["Inflation", "inflate", "inflate_many"],
+    "simulate": ["Inflation", "inflate", "inflate_from", "inflate_many"],
     "executor": ["map_shared", "scheduler_address"],
 })

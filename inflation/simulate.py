@@ -31,7 +31,7 @@ from inflation.prolong import coarse_resolutions, prolong
 from inflation.solver import NewtonSystem, rigid_pins, solve
 from inflation.strings import StringSet
 
-__all__ = ["Inflation", "inflate", "inflate_many", "start_positions", "INFLATE_TOL"]
+__all__ = ["Inflation", "inflate", "inflate_from", "inflate_many", "start_positions", "INFLATE_TOL"]
 
 log = logging.getLogger(__name__)
 
@@ -240,15 +240,60 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
                      stages=n_stages, string_lengths=lengths, levels=tuple(kept))
 
 
+def inflate_from(start: Inflation, strings: StringSet | None, *, params: Parameters = Parameters(),
+                 tol: float = INFLATE_TOL, max_iter: int = 200, strict: bool = False) -> Inflation:
+    """Carry an inflated equilibrium on to other strings, on its own mesh: Newton from ``start``, no ramp.
+
+    How a refined design is inflated (:func:`check.inflation_check.check`): its
+    open-loop strings are inflated from the flat mattress (:func:`inflate`), and
+    that equilibrium is carried on to the refined lengths, the path the
+    refinement's own equilibria took (each from the last one,
+    :mod:`check.refinement`). The strings need not be the same set: those
+    absent from ``strings`` are untied at once.
+
+    Parameters
+    ----------
+    start : Inflation
+        The equilibrium to start from (its ``mesh`` and ``xyz``).
+    strings : StringSet or None
+        The strings to carry it to (rest lengths l*, m); None: no strings.
+    params : Parameters
+    tol : float
+        Final relative force residual.
+    max_iter : int
+        Newton iterations.
+    strict : bool
+        Raise :class:`ConvergenceError` when the solve does not converge.
+
+    Returns
+    -------
+    Inflation
+        ``n_iter`` and ``seconds`` count this solve only; ``stages`` is 1.
+    """
+    t0 = time.perf_counter()
+    mesh = start.mesh
+    result, n_iter, n_stages, _, model = _ramp(mesh, strings, params, start.xyz, tol=tol, stages=1,
+                                               stage_tol=tol, max_iter=max_iter)
+    if not result.converged and strict:
+        raise ConvergenceError(result.message, residual=result.residual, n_iter=n_iter)
+    has_strings = strings is not None and len(strings) > 0
+    lengths = model.springs[-1].lengths(result.xyz) if has_strings else np.zeros(0)
+    return Inflation(mesh=mesh, xyz=result.xyz, converged=result.converged, n_iter=n_iter,
+                     residual=result.residual, message=result.message, seconds=time.perf_counter() - t0,
+                     energy=result.energy, stages=n_stages, string_lengths=lengths)
+
+
 def _inflate_task(shared, strings):
     """One inflation of :func:`inflate_many` (on a worker): the mesh is left out of the result (the caller has it)."""
-    mesh, params, strict = shared
+    mesh, params, strict, start = shared
+    if start is not None:
+        return replace(inflate_from(replace(start, mesh=mesh), strings, params=params, strict=strict), mesh=None)
     return replace(inflate(mesh, strings, params=params, strict=strict), mesh=None)
 
 
 def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = Parameters(),
                  strict: bool = False, workers: int = 1, scheduler: str | None = None,
-                 desc: str = "inflate") -> list:
+                 desc: str = "inflate", start: Inflation | None = None) -> list:
     """:func:`inflate` ``mesh`` once per string set, through :func:`inflation.executor.map_shared`.
 
     Each inflation is serial (the sparse Cholesky is single-threaded), so
@@ -273,6 +318,9 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
         Address of an existing Dask scheduler (``tcp://host:port``).
     desc : str
         Label of the progress bar over the runs.
+    start : Inflation, optional
+        An equilibrium on ``mesh`` that every run starts from (:func:`inflate_from`)
+        instead of the flat mattress; it goes to the workers once.
 
     Returns
     -------
@@ -281,6 +329,7 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
     """
     from inflation.executor import map_shared
 
-    out = map_shared(_inflate_task, (mesh, params, strict), string_sets, workers=workers,
+    start = None if start is None else replace(start, mesh=None, levels=())
+    out = map_shared(_inflate_task, (mesh, params, strict, start), string_sets, workers=workers,
                      scheduler=scheduler, desc=desc)
     return [replace(r, mesh=mesh) for r in out]

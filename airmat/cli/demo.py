@@ -158,7 +158,7 @@ def run(args) -> int:
         t = time.perf_counter()
         log.info("inflate: %g mm", args.resolution_mm)
         checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args),
-                        known=refinement.verification if refinement else None)
+                        known=refinement.known_runs if refinement else None)
         write_check(checked, tmp / "inflate")
         seconds["inflate"] = time.perf_counter() - t
         text = summary(out, cal, cs.truth, result, checked, seconds, refinement)

@@ -111,7 +111,7 @@ def run(args) -> int:
             write_design(result, tmp / name / "design")
             t = time.perf_counter()
             checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args),
-                            known=refinement.verification if refinement else None)
+                            known=refinement.known_runs if refinement else None)
             write_check(checked, tmp / name / "inflate")
             seconds = {"design": t_design, **({"refine": t_refine} if args.refine else {}),
                        "inflate": time.perf_counter() - t}

@@ -15,6 +15,10 @@ Layout (all lengths in mm on Ω = [0, W] × [0, H], top face seen from above)::
     dashes        [{id, family, side, polyline_mm, a_mm, b_mm, L_mm, chord_mm, kappa_per_m,
                     l_mm {median, lo95, hi95}, flags, a_node, b_node}]
 
+    refine        {converged, iterations, deviation_before, deviation_after, ..., open_loop_dashes}
+                  (a refined design only: check.refinement; ``open_loop_dashes`` are the strings before
+                  the refinement, dashes entries without polyline_mm, which its inflations start from)
+
 ``a_node``/``b_node`` are the grid nodes the ends are tied to, ``{row, col, u_mm, v_mm}``
 (node (row, col) at u = col · g, v = row · g), or null for free ends (``--tie-grid-mm 0``).
 
@@ -32,7 +36,7 @@ from airmat.errors import InputError
 from airmat.json_doc import finish
 from airmat.units import M_TO_MM
 
-__all__ = ["design_document", "write_design_json", "read_design_json", "FACES"]
+__all__ = ["design_document", "dash_entry", "write_design_json", "read_design_json", "FACES"]
 
 FACES = ("top", "bottom")
 
@@ -47,9 +51,10 @@ def _node(node, point) -> dict | None:
     return {"row": int(node[0]), "col": int(node[1]), "u_mm": _mm(point[0]), "v_mm": _mm(point[1])}
 
 
-def _dash_entry(s) -> dict:
+def dash_entry(s, *, polyline: bool = True) -> dict:
+    """One string of a pattern as a ``dashes`` entry (mm); ``polyline=False`` leaves out ``polyline_mm``."""
     d = s.dash
-    return {"id": d.id, "family": d.family, "side": s.side,
+    entry = {"id": d.id, "family": d.family, "side": s.side,
             "polyline_mm": [[_mm(u), _mm(v)] for u, v in d.polyline],
             "a_mm": [_mm(d.a[0]), _mm(d.a[1])], "b_mm": [_mm(d.b[0]), _mm(d.b[1])],
             "L_mm": _mm(d.length), "chord_mm": _mm(d.chord),
@@ -57,6 +62,9 @@ def _dash_entry(s) -> dict:
             "kappa_per_m": round(float(s.kappa), 4),
             "l_mm": {"median": _mm(s.l_median), "lo95": _mm(s.l_lo95), "hi95": _mm(s.l_hi95)},
             "flags": list(s.flags), "a_node": _node(d.a_node, d.a), "b_node": _node(d.b_node, d.b)}
+    if not polyline:
+        del entry["polyline_mm"]
+    return entry
 
 
 def design_document(pattern, *, mattress, calibration, report: dict, parameters: dict, seed: int,
@@ -98,7 +106,7 @@ def design_document(pattern, *, mattress, calibration, report: dict, parameters:
                     "no_string": dict(pattern.n_no_string), "notes": list(pattern.notes),
                     "tie_grid": pattern.tie_grid.summary_mm() if pattern.tie_grid is not None else None,
                     "coverage": pattern.coverage},
-        "dashes": [_dash_entry(s) for s in pattern.strings],
+        "dashes": [dash_entry(s) for s in pattern.strings],
     })
 
 

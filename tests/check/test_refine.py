@@ -12,7 +12,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from refine_case import OFF, RESOLUTION, TRUE_SIM, off_case, small_design  # noqa: E402
 
 from airmat.errors import InputError  # noqa: E402
-from check.inflation_check import check, design_strings  # noqa: E402
+from check.inflation_check import check, design_strings, open_loop_strings  # noqa: E402
 from check.length_map import length_map  # noqa: E402
 from check.refinement import refine  # noqa: E402
 from design.design_io import read_design, write_design  # noqa: E402
@@ -34,9 +34,15 @@ def test_refinement_lowers_the_deviation_and_the_check_reproduces_it(case, refin
     # the lengths move toward the ones that made Ŝ (a string's effect is partly taken over by its
     # neighbours', so not each one on its own); measured 0.65 of the start error after 6 iterations
     assert np.linalg.norm(r.l_simulated - TRUE_SIM) < 0.75 * np.linalg.norm(OFF)
-    # the check of the refined design (its own flat start and ramp) measures what the refinement promised
+    # the check of the refined design (the open-loop equilibrium from the flat mattress, carried on to the
+    # refined lengths, as the refinement went) measures what the refinement promised
     c = check(r.design, resolution=RESOLUTION, envelope=False)
     assert c.surface == r.surface == "top"
+    assert c.open_loop is not None and c.open_loop.n_iter == r.open_loop_run.inflation.n_iter
+    np.testing.assert_array_equal(c.open_loop.xyz, r.open_loop_run.inflation.xyz)
+    assert [s.dash.id for s in r.design.open_loop] == [s.dash.id for s in case.pattern.strings]
+    assert [s.l_median for s in r.design.open_loop] == [s.l_median for s in case.pattern.strings]
+    assert check(case, resolution=RESOLUTION, envelope=False).open_loop is None    # not refined: from flat
     assert c.runs["median"].deviation.rms == pytest.approx(r.deviation_after.rms, rel=1e-9)
     # real lengths through the length map; the tolerance moves with the median
     lm = length_map(case.calibration)
@@ -64,10 +70,13 @@ def test_the_pull_toward_the_open_loop_lengths_grows_with_alpha(case, refined):
 
 def test_the_check_takes_the_verification_as_its_median_run_only_when_it_is_that_run(refined):
     r = refined
-    reused = check(r.design, resolution=RESOLUTION, envelope=False, known=r.verification)
+    reused = check(r.design, resolution=RESOLUTION, envelope=False, known=r.known_runs)
     fresh = check(r.design, resolution=RESOLUTION, envelope=False)
     assert reused.runs["median"].inflation.xyz is r.verification.inflation.xyz       # not inflated again
+    assert reused.open_loop.xyz is r.open_loop_run.inflation.xyz                      # nor its start
     assert fresh.runs["median"].inflation.xyz is not r.verification.inflation.xyz
+    assert fresh.open_loop.xyz is not r.open_loop_run.inflation.xyz
+    np.testing.assert_array_equal(fresh.open_loop.xyz, reused.open_loop.xyz)
     np.testing.assert_array_equal(fresh.runs["median"].inflation.xyz, reused.runs["median"].inflation.xyz)
     assert reused.runs["median"].deviation.rms == fresh.runs["median"].deviation.rms == r.deviation_after.rms
     # another run than the known one is inflated: other parameters, another mesh, other lengths
@@ -77,8 +86,12 @@ def test_the_check_takes_the_verification_as_its_median_run_only_when_it_is_that
         assert other.runs["median"].inflation.xyz is not r.verification.inflation.xyz
     shifted = dataclasses.replace(r.verification, strings=dataclasses.replace(
         r.verification.strings, rest=r.verification.strings.rest + 1e-4))
-    assert not shifted.stands_for(design_strings(r.design), r.verification.inflation.mesh, Parameters(), 1e-6)
-    assert r.verification.stands_for(design_strings(r.design), r.verification.inflation.mesh, Parameters(), 1e-6)
+    mesh, start = r.verification.inflation.mesh, open_loop_strings(r.design)
+    assert not shifted.stands_for(design_strings(r.design), mesh, Parameters(), 1e-6, start)
+    assert r.verification.stands_for(design_strings(r.design), mesh, Parameters(), 1e-6, start)
+    # the same strings from another start (the flat mattress) are another run
+    assert not r.verification.stands_for(design_strings(r.design), mesh, Parameters(), 1e-6)
+    assert r.open_loop_run.stands_for(start, mesh, Parameters(), 1e-6)
 
 
 def test_the_refined_design_carries_s_hat_reparametrized_and_none_keeps_it_as_designed(case, refined):
@@ -103,6 +116,18 @@ def test_the_refined_design_carries_s_hat_reparametrized_and_none_keeps_it_as_de
         refine(case, resolution=RESOLUTION, reparametrize=-1)
 
 
+def test_a_refined_design_refined_again_starts_where_its_check_lands(case, refined):
+    # its open loop stays the first one, its first inflation is its check's median run (the open loop
+    # from the flat mattress, carried on to the refined lengths): the deviation it starts from is the
+    # one the first refinement promised
+    again = refine(refined.design, resolution=RESOLUTION, max_iter=2)
+    assert again.lengths_before == "refined"
+    assert again.deviation_before.rms == pytest.approx(refined.deviation_after.rms, rel=1e-9)
+    np.testing.assert_array_equal(again.open_loop_run.inflation.xyz, refined.open_loop_run.inflation.xyz)
+    assert [s.l_median for s in again.design.open_loop] == [s.l_median for s in case.pattern.strings]
+    assert again.deviation_after.rms <= again.deviation_before.rms
+
+
 def test_the_checks_tolerance_is_the_inflations_default():
     import inspect
 
@@ -118,7 +143,13 @@ def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
     assert set(doc["refine"]) >= {"converged", "iterations", "seconds", "deviation_before", "deviation_after"}
     assert set(doc["refine"]["deviation_after"]) >= {"rms_mm", "rms_pct_diag"}
     back = read_design(tmp_path)
-    assert back.refine == doc["refine"]
+    assert back.refine == {k: v for k, v in doc["refine"].items() if k != "open_loop_dashes"}
+    # the open-loop strings its check starts from: every original string (0.01 mm in the file)
+    assert [s.dash.id for s in back.open_loop] == [e["id"] for e in doc["refine"]["open_loop_dashes"]] == \
+        [s.dash.id for s in refined.design.open_loop]
+    np.testing.assert_allclose([s.l_median for s in back.open_loop],
+                               [s.l_median for s in refined.design.open_loop], atol=1e-5)
+    assert "open_loop_dashes" not in json.dumps(read_design(tmp_path).refine)
     # Ŝ as the refinement left it (re-parametrized), float32 mm in approx_surface.ply
     np.testing.assert_allclose(back.approx.xyz, refined.design.approx.xyz, atol=1e-5)
     got = [s.l_median for s in back.pattern.strings]
@@ -208,18 +239,16 @@ def test_lengths_that_verify_worse_are_not_kept_and_the_message_names_what_is(ca
     # design's own when a refined design is refined again)
     import check.refinement as refinement
 
-    calls, inflate = [], refinement.inflate
+    calls, inflate_from = [], refinement.inflate_from
 
-    def worse_verification(mesh, strings, **kw):
+    def worse_verification(start, strings, **kw):
         calls.append(kw)
-        if len(calls) == 2:
-            strings = dataclasses.replace(strings, rest=strings.rest - 0.02)
-        return inflate(mesh, strings, **kw)
+        return inflate_from(start, dataclasses.replace(strings, rest=strings.rest - 0.02), **kw)
 
-    monkeypatch.setattr(refinement, "inflate", worse_verification)
+    monkeypatch.setattr(refinement, "inflate_from", worse_verification)
     given = dataclasses.replace(case, refine={"converged": True}) if already else case
     r = refine(given, resolution=RESOLUTION, max_iter=2)
-    assert len(calls) == 2 and not r.converged
+    assert len(calls) == 1 and not r.converged
     np.testing.assert_array_equal(r.l_simulated, np.clip(design_strings(case).rest, *refinement._bounds(
         case, design_strings(case))))
     assert r.deviation_after == r.deviation_before and r.dropped == r.flagged == ()

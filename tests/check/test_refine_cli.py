@@ -37,10 +37,15 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     assert "surface points moved" in text
     assert wrote(text, out) == {p.name for p in out.iterdir()}        # every file of the folder, no other
     assert f"'airmat inflate {out} --out DIR --resolution-mm 40'" in text
-    assert main(["inflate", "-q", str(out), "--out", str(tmp_path / "inf"), "--resolution-mm", "40",
+    assert main(["inflate", str(out), "--out", str(tmp_path / "inf"), "--resolution-mm", "40",
                  "--no-envelope"]) == 0
-    assert "airmat refine" not in capsys.readouterr().out    # refined lengths: no hint to refine them
+    text = capsys.readouterr().out
+    assert "airmat refine" not in text    # refined lengths: no hint to refine them
+    # inflated as it was refined: its open-loop lengths from the flat mattress, then on to the refined ones
+    assert "refined design: its open-loop lengths inflated first" in text
     inf = json.loads((tmp_path / "inf" / "inflate.json").read_text())
+    assert inf["start"]["from"] == "open-loop equilibrium" and inf["start"]["converged"] is True
+    assert f"{inf['start']['iterations']} Newton iterations" in text
     assert inf["deviation"]["rms_mm"] == pytest.approx(doc["refine"]["deviation_after"]["rms_mm"], abs=0.011)
     # --single-level: every iteration at the target resolution (no coarse mesh in the block)
     one = tmp_path / "one"

@@ -47,6 +47,7 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys, wrote):
     assert doc["solver"]["converged"] is True
     assert set(doc["solver"]) >= {"converged", "iterations", "residual"}
     assert doc["converged"] is True and set(doc["timings_s"]) == {"median", "lo95", "hi95"}
+    assert doc["start"] == {"from": "flat"}       # not refined: every run from the flat mattress
     assert [d["id"] for d in doc["dashes"]] == ["k1-001-01", "k1-002-01"]
     # top strings bend toward the top face: negative curvature, shorter strings (lo95) bend more
     kap = np.array([d["kappa_realized_per_m"] for d in doc["dashes"]])

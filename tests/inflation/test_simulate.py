@@ -69,3 +69,45 @@ def test_a_local_cluster_does_not_need_port_8787(recwarn):
     finally:
         holder.close()
     assert not [w for w in recwarn if "already in use" in str(w.message)]
+
+
+def _two_lengths():
+    from inflation.mesh import build_mattress_mesh
+    from inflation.strings import StringSet
+
+    mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
+    sets = [StringSet(np.array([[0.15, 0.15]]), np.array([[0.45, 0.15]]), np.array([True]), np.array([r]), ("s",))
+            for r in (0.25, 0.22)]
+    return mesh, sets
+
+
+def test_inflate_from_carries_an_equilibrium_on_to_other_strings():
+    """A refined design's path (inflate_from): Newton from an equilibrium, to the full tolerance, on its mesh."""
+    from inflation.simulate import INFLATE_TOL, inflate, inflate_from
+
+    mesh, (s1, s2) = _two_lengths()
+    start = inflate(mesh, s1)
+    same = inflate_from(start, s1)                     # already there: no Newton step
+    assert same.converged and same.n_iter == 0 and same.xyz.tobytes() == start.xyz.tobytes()
+    moved = inflate_from(start, s2)
+    assert moved.converged and moved.residual < INFLATE_TOL and moved.mesh is mesh and moved.stages == 1
+    assert 0 < moved.n_iter < start.n_iter             # a few Newton steps, not a whole inflation
+    # the string is shorter: its ends come closer, to what the same strings inflated from flat give
+    assert moved.string_lengths[0] < start.string_lengths[0]
+    flat = inflate(mesh, s2)
+    assert abs(moved.string_lengths[0] - flat.string_lengths[0]) < 1e-3
+    untied = inflate_from(start, None)                 # every string untied at once
+    assert untied.converged and untied.string_lengths.size == 0
+
+
+def test_inflate_many_from_a_start_is_inflate_from_each():
+    """inflate_many(start=...): every run carried on from the same equilibrium, serial or on Dask workers."""
+    from inflation.simulate import inflate, inflate_from, inflate_many
+
+    mesh, (s1, s2) = _two_lengths()
+    start = inflate(mesh, s1)
+    one = inflate_from(start, s2)
+    for workers in (1, 2):
+        got = inflate_many(mesh, [s2, s1], start=start, workers=workers)
+        assert got[0].xyz.tobytes() == one.xyz.tobytes() and got[0].mesh is mesh
+        assert got[1].n_iter == 0
