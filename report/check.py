@@ -156,6 +156,11 @@ def check_part(check, *, with_design_banner: bool = True) -> Part:
     failed = [k for k, r in check.runs.items() if not r.inflation.converged]
     body = (f"<p>Design <b>{escape(d.name)}</b> inflated on a {check.resolution * M_TO_MM:g} mm double-layer mesh "
             f"({check.runs['median'].inflation.mesh.n_vertices} vertices); strings simulated at l* = l + 2Δ.</p>\n")
+    if check.open_loop is not None:      # a refined design: inflated the way it was refined
+        body += (f"<p>A refined design: its open-loop strings were inflated from the flat mattress first "
+                 f"({check.open_loop.n_iter} Newton iterations"
+                 f"{'' if check.open_loop.converged else ', NOT converged'}), and every run below was carried "
+                 f"on from that equilibrium to its own lengths, the path the refinement took.</p>\n")
     if failed:
         msg = "; ".join(f"{k}: {check.runs[k].inflation.message}" for k in failed)
         body += f'<div class="banner bad">The inflation did NOT converge ({escape(msg)}).</div>\n'

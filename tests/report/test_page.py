@@ -159,3 +159,12 @@ def test_a_refined_design_says_what_the_refinement_did(run_objects):
     assert "The refinement did not converge: not converged after 20 iterations" in banners_before_first_section(html)
     # an open-loop design has no such section
     assert "refined through the inflation" not in report_html(design=result)
+
+
+def test_a_refined_designs_check_says_where_its_runs_started(run_objects):
+    # a refined design's runs are carried on from its open-loop equilibrium (check.inflation_check): the page says so
+    _, _, chk = run_objects
+    base = dataclasses.replace(chk.runs["median"].inflation, n_iter=87)
+    html = report_html(check=dataclasses.replace(chk, open_loop=base))
+    assert "its open-loop strings were inflated from the flat mattress first (87 Newton iterations)" in html
+    assert "open-loop strings were inflated" not in report_html(check=chk)
