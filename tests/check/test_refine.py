@@ -116,6 +116,22 @@ def test_the_refined_design_carries_s_hat_reparametrized_and_none_keeps_it_as_de
         refine(case, resolution=RESOLUTION, reparametrize=-1)
 
 
+def test_a_refined_designs_envelope_and_samples_are_carried_on_from_its_open_loop(refined):
+    # lo95 / hi95 and the Monte-Carlo samples start where the median does: the open-loop equilibrium
+    # (a few Newton steps each, not a whole inflation with its ramp and coarse meshes)
+    r = refined
+    c = check(r.design, resolution=RESOLUTION, samples=2, seed=0, known=r.known_runs)
+    base = r.open_loop_run.inflation
+    assert c.converged and c.open_loop.xyz is base.xyz
+    for key in ("lo95", "hi95"):
+        inf = c.runs[key].inflation
+        assert inf.stages == 1 and 0 < inf.n_iter < base.n_iter
+    assert c.monte_carlo.converged.all() and np.all(c.monte_carlo.rms > 0)
+    # the same samples inflated from the flat mattress are other runs (the design's open loop forgotten)
+    flat = check(dataclasses.replace(r.design, open_loop=None), resolution=RESOLUTION, envelope=False)
+    assert flat.open_loop is None and flat.runs["median"].inflation.stages > 1
+
+
 def test_a_refined_design_refined_again_starts_where_its_check_lands(case, refined):
     # its open loop stays the first one, its first inflation is its check's median run (the open loop
     # from the flat mattress, carried on to the refined lengths): the deviation it starts from is the
