@@ -166,6 +166,13 @@ def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
     np.testing.assert_allclose([s.l_median for s in back.open_loop],
                                [s.l_median for s in refined.design.open_loop], atol=1e-5)
     assert "open_loop_dashes" not in json.dumps(read_design(tmp_path).refine)
+    # a refined folder written before the open loop was kept: checked from the flat mattress, as then
+    older = {**doc, "refine": {k: v for k, v in doc["refine"].items() if k != "open_loop_dashes"}}
+    (tmp_path / "design.json").write_text(json.dumps(older))
+    assert read_design(tmp_path).open_loop is None and read_design(tmp_path).refine == older["refine"]
+    (tmp_path / "design.json").write_text(json.dumps({**doc, "refine": {**doc["refine"], "open_loop_dashes": 3}}))
+    with pytest.raises(InputError, match="refine.open_loop_dashes' must be a list"):
+        read_design(tmp_path)
     # Ŝ as the refinement left it (re-parametrized), float32 mm in approx_surface.ply
     np.testing.assert_allclose(back.approx.xyz, refined.design.approx.xyz, atol=1e-5)
     got = [s.l_median for s in back.pattern.strings]
