@@ -293,7 +293,10 @@ def _refine_block(doc: dict, path: Path, width: float, height: float) -> tuple:
         return block, None
     if not isinstance(dashes, list):
         raise InputError("field 'refine.open_loop_dashes' must be a list", path=path)
-    return block, tuple(_string(dash, k, path, width, height) for k, dash in enumerate(dashes))
+    try:
+        return block, tuple(_string(dash, k, path, width, height) for k, dash in enumerate(dashes))
+    except InputError as err:        # say which list: these dashes are not the pattern's
+        raise InputError(f"refine.open_loop_dashes: {err.message}", path=path) from None
 
 
 def read_design(folder) -> DesignResult:

@@ -231,13 +231,20 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
             kept.insert(0, (m, x))
         log.debug("inflation on the %.0f mm mesh: %d iterations, residual %.2e", 1e3 * max(m.spacing),
                   it, result.residual)
+    return _inflation(mesh, result, model, strings, n_iter, n_stages, t0, strict, levels=tuple(kept))
+
+
+def _inflation(mesh, result, model, strings, n_iter: int, n_stages: int, t0: float, strict: bool,
+               levels: tuple = ()) -> Inflation:
+    """The Inflation of ``result`` (the final solve, with ``model``), or ConvergenceError when ``strict``
+    and it did not converge."""
     if not result.converged and strict:
         raise ConvergenceError(result.message, residual=result.residual, n_iter=n_iter)
     has_strings = strings is not None and len(strings) > 0
-    lengths = model.springs[-1].lengths(x) if has_strings else np.zeros(0)
-    return Inflation(mesh=mesh, xyz=x, converged=result.converged, n_iter=n_iter, residual=result.residual,
-                     message=result.message, seconds=time.perf_counter() - t0, energy=result.energy,
-                     stages=n_stages, string_lengths=lengths, levels=tuple(kept))
+    lengths = model.springs[-1].lengths(result.xyz) if has_strings else np.zeros(0)
+    return Inflation(mesh=mesh, xyz=result.xyz, converged=result.converged, n_iter=n_iter,
+                     residual=result.residual, message=result.message, seconds=time.perf_counter() - t0,
+                     energy=result.energy, stages=n_stages, string_lengths=lengths, levels=levels)
 
 
 def inflate_from(start: Inflation, strings: StringSet | None, *, params: Parameters = Parameters(),
@@ -274,13 +281,7 @@ def inflate_from(start: Inflation, strings: StringSet | None, *, params: Paramet
     mesh = start.mesh
     result, n_iter, n_stages, _, model = _ramp(mesh, strings, params, start.xyz, tol=tol, stages=1,
                                                stage_tol=tol, max_iter=max_iter)
-    if not result.converged and strict:
-        raise ConvergenceError(result.message, residual=result.residual, n_iter=n_iter)
-    has_strings = strings is not None and len(strings) > 0
-    lengths = model.springs[-1].lengths(result.xyz) if has_strings else np.zeros(0)
-    return Inflation(mesh=mesh, xyz=result.xyz, converged=result.converged, n_iter=n_iter,
-                     residual=result.residual, message=result.message, seconds=time.perf_counter() - t0,
-                     energy=result.energy, stages=n_stages, string_lengths=lengths)
+    return _inflation(mesh, result, model, strings, n_iter, n_stages, t0, strict)
 
 
 def _inflate_task(shared, strings):

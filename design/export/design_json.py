@@ -55,16 +55,14 @@ def dash_entry(s, *, polyline: bool = True) -> dict:
     """One string of a pattern as a ``dashes`` entry (mm); ``polyline=False`` leaves out ``polyline_mm``."""
     d = s.dash
     entry = {"id": d.id, "family": d.family, "side": s.side,
-            "polyline_mm": [[_mm(u), _mm(v)] for u, v in d.polyline],
-            "a_mm": [_mm(d.a[0]), _mm(d.a[1])], "b_mm": [_mm(d.b[0]), _mm(d.b[1])],
-            "L_mm": _mm(d.length), "chord_mm": _mm(d.chord),
-            "free_span_mm": None if s.free_span is None else _mm(s.free_span),
-            "kappa_per_m": round(float(s.kappa), 4),
-            "l_mm": {"median": _mm(s.l_median), "lo95": _mm(s.l_lo95), "hi95": _mm(s.l_hi95)},
-            "flags": list(s.flags), "a_node": _node(d.a_node, d.a), "b_node": _node(d.b_node, d.b)}
-    if not polyline:
-        del entry["polyline_mm"]
-    return entry
+             "polyline_mm": [[_mm(u), _mm(v)] for u, v in d.polyline] if polyline else None,
+             "a_mm": [_mm(d.a[0]), _mm(d.a[1])], "b_mm": [_mm(d.b[0]), _mm(d.b[1])],
+             "L_mm": _mm(d.length), "chord_mm": _mm(d.chord),
+             "free_span_mm": None if s.free_span is None else _mm(s.free_span),
+             "kappa_per_m": round(float(s.kappa), 4),
+             "l_mm": {"median": _mm(s.l_median), "lo95": _mm(s.l_lo95), "hi95": _mm(s.l_hi95)},
+             "flags": list(s.flags), "a_node": _node(d.a_node, d.a), "b_node": _node(d.b_node, d.b)}
+    return entry if polyline else {k: v for k, v in entry.items() if k != "polyline_mm"}
 
 
 def design_document(pattern, *, mattress, calibration, report: dict, parameters: dict, seed: int,

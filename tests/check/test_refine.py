@@ -173,6 +173,10 @@ def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
     (tmp_path / "design.json").write_text(json.dumps({**doc, "refine": {**doc["refine"], "open_loop_dashes": 3}}))
     with pytest.raises(InputError, match="refine.open_loop_dashes' must be a list"):
         read_design(tmp_path)
+    broken = [{k: v for k, v in e.items() if k != "a_mm"} for e in doc["refine"]["open_loop_dashes"]]
+    (tmp_path / "design.json").write_text(json.dumps({**doc, "refine": {**doc["refine"], "open_loop_dashes": broken}}))
+    with pytest.raises(InputError, match="refine.open_loop_dashes: dash .* lacks field 'a_mm'"):
+        read_design(tmp_path)
     # Ŝ as the refinement left it (re-parametrized), float32 mm in approx_surface.ply
     np.testing.assert_allclose(back.approx.xyz, refined.design.approx.xyz, atol=1e-5)
     got = [s.l_median for s in back.pattern.strings]
