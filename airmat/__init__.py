@@ -1,13 +1,26 @@
 """airmat: reconfigurable inflatable surfaces with tension-string patterns.
 
-The numerical library lives in the top-level packages ``calib`` (Equation 3,
-scan fitting, posterior), ``design`` (near-developable surface, stripes,
-string lengths, exports), ``inflation`` (the U_B simulator), ``check`` (an
-inflation against Ŝ) and ``data_synthetic`` (ground truth). This package
-holds what they share: the error hierarchy, atomic output, progress bars,
-unit conversions, lazy package exports (``airmat.lazy``), figures without
-pyplot (``airmat.figures``) and the ``airmat`` command line. It imports
-nothing heavy itself: every package imports it first.
+``import airmat`` gives the stage functions and the readers and writers a user
+needs, loaded on first use (start-up stays light)::
+
+    import airmat
+
+    cal = airmat.calibrate("specimens/manifest.csv", seed=1)      # Equation 3's Δ, d (SI: m, 1/m)
+    target, mattress = airmat.preset("vault1")                   # or airmat.load_target(path, units="mm")
+    result = airmat.make_design(target, mattress, calibration=cal)
+    refined = airmat.refine(result, resolution=0.020)
+    checked = airmat.check_design(refined.design, resolution=0.020, known=refined.known_runs)
+    airmat.write_design(refined.design, "out/design")
+
+The stages live in subpackages, one folder each in the repository:
+``airmat.calib`` (scans, cylinder fit, Equation 3, posterior), ``airmat.design``
+(Ŝ, curvature field, stripes, string lengths, exports), ``airmat.inflation``
+(the U_B simulator), ``airmat.check`` (inflation against Ŝ, refinement,
+Monte-Carlo), ``airmat.report`` (report.html) and ``airmat.synthetic``
+(scans and targets with known truth). The modules directly in ``airmat`` are
+what they share: errors, atomic output, progress bars, units, lazy exports.
+The Python API uses SI units (metres, 1/m); files and the command line use
+millimetres.
 """
 
 import os as _os
@@ -22,5 +35,48 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
-__version__ = "0.1.0"
-__all__ = ["__version__"]
+__version__ = "0.2.0"
+
+#: public name -> "module:attribute" it is loaded from on first use
+_FACADE = {
+    # calibrate
+    "read_scan": "airmat.calib.scan_io:read_scan",
+    "fit_cylinder": "airmat.calib.cylinder_fit:fit_cylinder",
+    "calibrate": "airmat.calib.calibrate:calibrate",
+    "read_calibration": "airmat.calib.calibration_io:read_calibration",
+    "write_calibration": "airmat.calib.calibration_io:write_calibration",
+    # design
+    "load_target": "airmat.design.target:load_target",
+    "preset": "airmat.design.presets:preset",
+    "Mattress": "airmat.design.mattress:Mattress",
+    "DesignParams": "airmat.design.pipeline:DesignParams",
+    "make_design": "airmat.design.pipeline:design",
+    "read_design": "airmat.design.design_io:read_design",
+    "write_design": "airmat.design.design_io:write_design",
+    # check and refine
+    "check_design": "airmat.check.inflation_check:check",
+    "monte_carlo": "airmat.check.inflation_check:monte_carlo",
+    "refine": "airmat.check.refinement:refine",
+    "write_report": "airmat.report.page:write_report",
+}
+_SUBPACKAGES = ("calib", "design", "inflation", "check", "report", "synthetic", "cli")
+
+__all__ = ["__version__", *_FACADE]
+
+
+def __getattr__(name):
+    import importlib
+
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f"{__name__}.{name}")
+    target = _FACADE.get(name)
+    if target is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module, _, attr = target.partition(":")
+    value = getattr(importlib.import_module(module), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

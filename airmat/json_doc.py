@@ -1,7 +1,7 @@
 """The envelope of every JSON file airmat writes: versions first, no bare NaN.
 
 Each document starts with ``schema_version`` (the version of its JSON
-Schema in the repository's ``schemas/`` folder, ``<name>.schema.json``) and
+Schema in the package folder ``airmat/schemas/``, ``<name>.schema.json``) and
 ``airmat_version``. JSON has no NaN: a value that is not a finite number
 becomes ``null`` and its JSON Pointer is listed in ``null_reasons`` with the
 reason (the writer's own words where it gave one, else "not a finite
@@ -19,7 +19,7 @@ from airmat import __version__
 
 __all__ = ["SCHEMA_VERSION", "finish", "dumps"]
 
-#: version of the JSON layouts described by ``schemas/*.schema.json``; bump on an incompatible change
+#: version of the JSON layouts described by ``airmat/schemas/*.schema.json``; bump on an incompatible change
 SCHEMA_VERSION = 1
 
 

@@ -2,7 +2,7 @@
 
 A package ``__init__`` names its public objects and the submodule that defines
 each; ``import calib`` then costs nothing beyond ``airmat``, and importing one
-submodule (``import design.mattress``) no longer runs every sibling's imports.
+submodule (``import airmat.design.mattress``) no longer runs every sibling's imports.
 ``from calib import kappa1``, ``dir(calib)`` and ``from calib import *`` work
 as with eager re-exports.
 
@@ -29,10 +29,10 @@ __all__ = ["attach", "import_open3d"]
 class _ExportsShadowSubmodules(types.ModuleType):
     """A package where a public name equals the name of the submodule that defines it.
 
-    ``calib.calibrate`` is the function of ``calib/calibrate.py``. Importing that
+    ``airmat.calib.calibrate`` is the function of ``calib/calibrate.py``. Importing that
     submodule makes Python bind the module on the package under the same name
     (after the submodule ran), which would shadow the function; here the
-    package keeps the function, as an eager ``from calib.calibrate import
+    package keeps the function, as an eager ``from airmat.calib.calibrate import
     calibrate`` in the ``__init__`` did.
     """
 
@@ -51,7 +51,7 @@ def attach(package: str, exports: dict[str, list[str]]):
     package : str
         The package's ``__name__``.
     exports : dict of str to list of str
-        Submodule name relative to the package (``"model"`` for ``calib.model``)
+        Submodule name relative to the package (``"model"`` for ``airmat.calib.model``)
         -> the public names it defines.
 
     Returns

@@ -6,7 +6,7 @@ Usage::
     .venv/bin/python bench/bench_assembly.py --quick    # vault1 only
 
 Every inflation, every Newton system of a refinement's trial equilibria, builds
-the CSR pattern of its Newton matrix once (:func:`inflation.assembly.build_assembler`).
+the CSR pattern of its Newton matrix once (:func:`airmat.inflation.assembly.build_assembler`).
 The baseline is the former build, kept here: one ``np.unique`` over the nine
 scalar entries of every block. The build in use merges the blocks by vertex
 pair (nine times fewer keys) and places each block's entries by arithmetic.
@@ -27,13 +27,13 @@ sys.path.insert(0, str(HERE))
 import numpy as np  # noqa: E402
 
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import design_strings  # noqa: E402
+from airmat.check.inflation_check import design_strings  # noqa: E402
 from bench_jacobian_solve import _median  # noqa: E402
-from inflation.assembly import Assembler, build_assembler, reduced_dofs  # noqa: E402
-from inflation.energy import block_pattern  # noqa: E402
-from inflation.mesh import build_mattress_mesh  # noqa: E402
-from inflation.model import build_model  # noqa: E402
-from inflation.solver import rigid_pins  # noqa: E402
+from airmat.inflation.assembly import Assembler, build_assembler, reduced_dofs  # noqa: E402
+from airmat.inflation.energy import block_pattern  # noqa: E402
+from airmat.inflation.mesh import build_mattress_mesh  # noqa: E402
+from airmat.inflation.model import build_model  # noqa: E402
+from airmat.inflation.solver import rigid_pins  # noqa: E402
 
 
 def per_entry(pattern: list, n_vertices: int, fixed_dofs=()) -> Assembler:

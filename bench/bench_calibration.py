@@ -1,10 +1,10 @@
 """Benchmark the calibration: end to end on synthetic scans, and Equation 3 vectorized vs scalar.
 
-1. Writes a synthetic calibration set once (``data_synthetic.calibration_set``:
-   by default 12 specimens of 100k points), then times ``calib.calibrate``
+1. Writes a synthetic calibration set once (``airmat.synthetic.calibration_set``:
+   by default 12 specimens of 100k points), then times ``airmat.calib.calibrate``
    end to end, split into reading the scans, fitting the cylinders, MCMC and
    the curve, and reports the recovered Delta, d against the truth.
-2. Times ``calib.model.kappa1`` on n random (l, L, Delta, d) in one call
+2. Times ``airmat.calib.model.kappa1`` on n random (l, L, Delta, d) in one call
    against a per-element scalar root solve (``scipy.optimize.brentq`` in a
    Python loop) on the same inputs, and checks they agree.
 
@@ -28,9 +28,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from calib.calibrate import calibrate  # noqa: E402
-from calib.model import kappa1  # noqa: E402
-from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set  # noqa: E402
+from airmat.calib.calibrate import calibrate  # noqa: E402
+from airmat.calib.model import kappa1  # noqa: E402
+from airmat.synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set  # noqa: E402
 
 
 def kappa1_scalar(l: float, L: float, delta: float, d: float) -> float:

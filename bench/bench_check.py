@@ -5,7 +5,7 @@ Usage::
     .venv/bin/python bench/bench_check.py            # vault1 (small) and vault2 (large) at 20 mm
     .venv/bin/python bench/bench_check.py --quick    # vault1 at 40 mm
 
-``check.inflation_check.check`` with ``workers=1`` (the three runs in
+``airmat.check.inflation_check.check`` with ``workers=1`` (the three runs in
 this process, the baseline) and ``workers=2`` (what ``airmat inflate`` uses on
 a 2-core machine: ``--jobs`` defaults to the cores, at most 3). The sparse
 Cholesky is serial, so the runs can share the cores. The table also checks
@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import check  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
 
 
 def main(argv=None) -> int:

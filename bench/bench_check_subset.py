@@ -1,9 +1,9 @@
 """Benchmark: how the seed-stability check's tolerance grows as its check fits get fewer points.
 
-calib.cylinder_stability compares the main fit's kappa with check fits from
+airmat.calib.cylinder_stability compares the main fit's kappa with check fits from
 other seeds on random subsets; they agree when ``|dkappa| <= 3 hypot(se_main,
 se_check)``. That tolerance is the smallest seed disagreement the check
-notices. For synthetic specimen scans (data_synthetic.specimen_scan: floor,
+notices. For synthetic specimen scans (airmat.synthetic.specimen_scan: floor,
 clutter, holes, grooves, random pose) of N points, each subset size n gets
 ``--seeds`` check fits (different subsets and seeds): median time of one
 check fit, the standard deviation of their kappas, the median standard error
@@ -25,8 +25,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from calib.cylinder_fit import fit_cylinder  # noqa: E402
-from data_synthetic.specimen_scan import specimen_scan  # noqa: E402
+from airmat.calib.cylinder_fit import fit_cylinder  # noqa: E402
+from airmat.synthetic.specimen_scan import specimen_scan  # noqa: E402
 
 #: (kappa 1/m, visible arc degrees) of the specimens
 CASES = ((5.0, 90.0), (2.0, 60.0), (10.0, 120.0))

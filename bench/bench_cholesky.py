@@ -12,7 +12,7 @@ solver's former linear algebra), CHOLMOD with its default ordering (AMD) and
 CHOLMOD with METIS nested dissection of the vertex graph (the solver's
 choice), and that last one again in a subprocess whose OpenBLAS (cvxopt's
 bundled 0.3.15) runs its Prescott (SSE3) kernels, what its own CPU detection
-falls back to on recent Xeons (see :mod:`inflation.cholesky`). Median
+falls back to on recent Xeons (see :mod:`airmat.inflation.cholesky`). Median
 of 3 numeric factorizations; the symbolic analysis is timed separately (done
 once per solve). The BLAS kernels in use are named in the method column.
 """
@@ -35,13 +35,13 @@ import scipy.sparse.linalg as spla  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import design_strings  # noqa: E402
-from inflation.assembly import build_assembler  # noqa: E402
-from inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels  # noqa: E402
-from inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
-from inflation.mesh import build_mattress_mesh  # noqa: E402
-from inflation.model import build_model  # noqa: E402
-from inflation.solver import rigid_pins  # noqa: E402
+from airmat.check.inflation_check import design_strings  # noqa: E402
+from airmat.inflation.assembly import build_assembler  # noqa: E402
+from airmat.inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels  # noqa: E402
+from airmat.inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
+from airmat.inflation.mesh import build_mattress_mesh  # noqa: E402
+from airmat.inflation.model import build_model  # noqa: E402
+from airmat.inflation.solver import rigid_pins  # noqa: E402
 
 
 def _median_time(fn, repeat: int = 3) -> float:

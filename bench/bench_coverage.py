@@ -1,4 +1,4 @@
-"""Benchmark: how the default pattern covers the mattress, per preset (design.coverage).
+"""Benchmark: how the default pattern covers the mattress, per preset (airmat.design.coverage).
 
 Usage::
 

@@ -1,10 +1,10 @@
 """Benchmark: airmat's robust cylinder fit against peers and a plain recipe, on the same scans.
 
-Every method sees the same synthetic specimen scans (data_synthetic.specimen_scan:
+Every method sees the same synthetic specimen scans (airmat.synthetic.specimen_scan:
 partial arc, floor plane, 5% clutter, holes, string-end grooves, random pose) and
 is timed on them; the table gives wall time and radius error per scan size.
 
-- ``airmat``: calib.cylinder_fit.fit_cylinder on every point.
+- ``airmat``: airmat.calib.cylinder_fit.fit_cylinder on every point.
 - ``recipe``: the plain recipe (bench/recipe_cylinder.py): open3d voxel downsampling and
   plane removal, open3d normals, axis = smallest eigenvector of the normals' scatter,
   circle by RANSAC in the projection (skimage), then scipy least_squares (soft_l1, scale
@@ -17,9 +17,9 @@ is timed on them; the table gives wall time and radius error per scan size.
   axis directions in Python): it gets a random subset of ``--cf-points`` points.
 
 With ``--formats N``: an N-point scan written in every scanner format by the
-library real software uses (data_synthetic.scan_write: pye57, laspy+lazrs
+library real software uses (airmat.synthetic.scan_write: pye57, laspy+lazrs
 (LAS 1.2 point format 3 and LAS 1.4 point format 6), open3d, trimesh, numpy
-text layouts), read back with calib.scan_io.read_scan
+text layouts), read back with airmat.calib.scan_io.read_scan
 (median of 9 reads, after one warm-up read that loads the library, each
 followed by a read of the PLY file), and fitted: read time and CPU time, their
 ratios to the PLY reads next to them, file size and radius error; then the
@@ -52,8 +52,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from calib.cylinder_fit import fit_cylinder  # noqa: E402
-from data_synthetic.specimen_scan import specimen_scan  # noqa: E402
+from airmat.calib.cylinder_fit import fit_cylinder  # noqa: E402
+from airmat.synthetic.specimen_scan import specimen_scan  # noqa: E402
 from bench.recipe_cylinder import recipe_fit  # noqa: E402
 
 
@@ -130,8 +130,8 @@ def format_rows(n, seed, kappa, arc_deg, n_reads=9):
     import tempfile
     from pathlib import Path
 
-    from calib.scan_io import read_scan
-    from data_synthetic.scan_write import FORMATS, write_scan
+    from airmat.calib.scan_io import read_scan
+    from airmat.synthetic.scan_write import FORMATS, write_scan
 
     try:
         import lzf  # noqa: F401  (python-lzf, the optional ``fast`` extra)
@@ -188,9 +188,9 @@ def decode_rows(n, seed, kappa, arc_deg, repeats=7):
     import polars as pl
     import pye57
 
-    from calib.scan_io import read_scan
-    from calib.scan_readers import e57_reader, pcd_reader
-    from data_synthetic.scan_write import write_scan
+    from airmat.calib.scan_io import read_scan
+    from airmat.calib.scan_readers import e57_reader, pcd_reader
+    from airmat.synthetic.scan_write import write_scan
 
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)
     floats = lambda k: {f"f{i}": pl.Float64 for i in range(k)}  # noqa: E731
@@ -247,7 +247,7 @@ def decode_markdown(rows, n, repeats=7):
 def process_rows(n, seed, kappa, arc_deg, repeats=5):
     """Whole processes on an n-point binary PLY: ``airmat fit`` against the recipe as a script.
 
-    Both read the file themselves (airmat: calib.scan_io; the recipe: open3d)
+    Both read the file themselves (airmat: airmat.calib.scan_io; the recipe: open3d)
     and pay their own start-up (imports); they run alternately, ``repeats``
     times each, in this one benchmark run. Returns
     [(method, median s, min s, max s, radius error %)] and the ratios of airmat's median to the
@@ -258,7 +258,7 @@ def process_rows(n, seed, kappa, arc_deg, repeats=5):
     import tempfile
     from pathlib import Path
 
-    from data_synthetic.scan_write import write_scan
+    from airmat.synthetic.scan_write import write_scan
 
     root = Path(__file__).resolve().parent.parent
     scan = specimen_scan(kappa, n_points=n, arc_deg=arc_deg, seed=seed)

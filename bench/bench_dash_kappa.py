@@ -7,12 +7,12 @@ Usage::
     .venv/bin/python bench/bench_dash_kappa.py --calibrated-map   # checked through the calibrated length map
 
 Each preset is designed with the defaults (paper calibration values, seed 0),
-inflated at its median lengths (``check.inflation_check.check``, no envelope)
+inflated at its median lengths (``airmat.check.inflation_check.check``, no envelope)
 and, over the dashes with |κ| >= 1 1/m, the ratio realized / target is
 summarized per family: median, 10th and 90th percentiles, and the share of
 dashes within 10 %. ``--refine`` first refines the lengths through the inflation
-(:func:`check.refinement.refine`, defaults) and measures the refined design. Two measures of the realized curvature
-(:func:`check.compare.realized_curvature`): the turn of the face's normal
+(:func:`airmat.check.refinement.refine`, defaults) and measures the refined design. Two measures of the realized curvature
+(:func:`airmat.check.compare.realized_curvature`): the turn of the face's normal
 over the dash (the check's) and the circle through its ends and middle.
 ``--calibrated-map`` checks the open-loop designs with the calibrated length map
 (``check(..., calibrated_map=True)``: each real length simulated at the rest length at
@@ -32,8 +32,8 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 from designed_preset import designed_preset  # noqa: E402
-from check.compare import realized_curvature  # noqa: E402
-from check.inflation_check import check  # noqa: E402
+from airmat.check.compare import realized_curvature  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
 
 
 def _stats(q) -> str:

@@ -29,10 +29,10 @@ from scipy.spatial import cKDTree  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
 from airmat.geometry.polyline import points_at_fractions  # noqa: E402
-from check.inflation_check import check  # noqa: E402
-from design.pipeline import DesignParams, design  # noqa: E402
-from design.presets import preset  # noqa: E402
-from inflation.mesh import locate  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
+from airmat.design.pipeline import DesignParams, design  # noqa: E402
+from airmat.design.presets import preset  # noqa: E402
+from airmat.inflation.mesh import locate  # noqa: E402
 
 MM = 1e-3
 

@@ -14,7 +14,7 @@ figures and string counts. With ``--repeats N`` each preset is designed N
 times in turn (all presets once, then again) and every time is the median,
 with the totals' range beside it. ``--bvh-threads 1 auto`` designs every
 preset with the closest-point queries on one thread and on the cores other
-processes leave idle (design.closest_point, the default), one row each,
+processes leave idle (airmat.design.closest_point, the default), one row each,
 interleaved in every round. Targets on the 2-core reference machine: small
 presets (830 × 740 mm) < 10 s, large (2600 × 1600 mm) < 60 s in total.
 """
@@ -33,9 +33,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from design.presets import PRESETS, preset  # noqa: E402
-from design.design_io import write_design  # noqa: E402
-from design.pipeline import DesignParams, design  # noqa: E402
+from airmat.design.presets import PRESETS, preset  # noqa: E402
+from airmat.design.design_io import write_design  # noqa: E402
+from airmat.design.pipeline import DesignParams, design  # noqa: E402
 
 STAGES = ("preset", "triangulate", "relax", "curvature", "report", "transfer", "stripes", "lengths", "export")
 LIMITS = {"small": 10.0, "large": 60.0}
@@ -44,9 +44,9 @@ LIMITS = {"small": 10.0, "large": 60.0}
 def bench_one(name: str, spacing: float, seed: int = 0, threads: str = "auto") -> dict:
     """Design one preset end to end; returns the timings (s), the totals and a few results.
 
-    ``threads``: "auto" (the default of design.closest_point) or a number of closest-point threads."""
+    ``threads``: "auto" (the default of airmat.design.closest_point) or a number of closest-point threads."""
     if threads != "auto":
-        with mock.patch("design.closest_point.idle_cores", lambda *a, **k: int(threads)):
+        with mock.patch("airmat.design.closest_point.idle_cores", lambda *a, **k: int(threads)):
             return {**bench_one(name, spacing, seed), "threads": threads}
     t = time.perf_counter()
     target, mattress = preset(name)

@@ -21,8 +21,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from design.presets import PRESETS, preset  # noqa: E402
-from design.surface import approximate_surface, mattress_field  # noqa: E402
+from airmat.design.presets import PRESETS, preset  # noqa: E402
+from airmat.design.surface import approximate_surface, mattress_field  # noqa: E402
 
 #: the paper's Table 1: σ avg // max deviation, |κ1| avg // max, |κ2| avg // max
 PAPER = {"vault1": "0.9988 // 0.9661 | 3.2 // 5.2 | 0.43 // 2.0",

@@ -6,7 +6,7 @@ Usage::
     .venv/bin/python bench/bench_deviation_map.py --refine      # the same, at the refined lengths
 
 Each preset is designed with the defaults (paper calibration values, seed 0)
-and inflated at its median lengths (``check.inflation_check.check``, no
+and inflated at its median lengths (``airmat.check.inflation_check.check``, no
 envelope); the distance of the named face from Ŝ at each of Ŝ's vertices
 (after the check's rigid alignment) is split by where the vertex lies on Ω:
 within ``--edge-mm`` of the mattress's edge or inside it, and within
@@ -31,7 +31,7 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import check  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
 
 
 def split(per_vertex, mask) -> str:

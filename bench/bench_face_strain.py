@@ -27,8 +27,8 @@ sys.path.insert(0, str(HERE))
 from scipy.interpolate import LinearNDInterpolator  # noqa: E402
 
 from designed_preset import designed_preset  # noqa: E402
-from check.compare import surface_at  # noqa: E402
-from check.inflation_check import check  # noqa: E402
+from airmat.check.compare import surface_at  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
 
 
 def _length(xyz) -> float:

@@ -30,15 +30,15 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import design.string_lengths as string_lengths  # noqa: E402
-from check.inflation_check import check  # noqa: E402
+import airmat.design.string_lengths as string_lengths  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 
 MM = 1e-3
 
 
 def gained(bottom: float, top: float):
-    """``design.string_lengths.dash_kappa`` with κ > 0 scaled by ``bottom`` and κ < 0 by ``top``."""
+    """``airmat.design.string_lengths.dash_kappa`` with κ > 0 scaled by ``bottom`` and κ < 0 by ``top``."""
     plain = string_lengths.dash_kappa
 
     def dash_kappa(*args, **kwargs):

@@ -23,10 +23,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import design.string_lengths as string_lengths  # noqa: E402
-from check.inflation_check import check  # noqa: E402
-from design.pipeline import design  # noqa: E402
-from design.presets import preset  # noqa: E402
+import airmat.design.string_lengths as string_lengths  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
+from airmat.design.pipeline import design  # noqa: E402
+from airmat.design.presets import preset  # noqa: E402
 
 
 def free_face_length(kappa, L, delta, d):

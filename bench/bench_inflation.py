@@ -8,7 +8,7 @@ Usage::
 
 For each mesh resolution: the vault1 preset's string pattern (designed once,
 uncalibrated) on the small mattress (830 x 740 mm) is inflated by the
-project's solver (``inflation.simulate.inflate``: coarse-to-fine
+project's solver (``airmat.inflation.simulate.inflate``: coarse-to-fine
 continuation, string ramp, Newton with a CHOLMOD Cholesky); then the
 Kangaroo-style baseline (``bench/kangaroo_baseline.py``) relaxes the same
 final model from the flat start to the same relative force residual, with a
@@ -36,11 +36,11 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import design_strings  # noqa: E402
-from inflation.mesh import build_mattress_mesh  # noqa: E402
-from inflation.model import Parameters, build_model  # noqa: E402
-from inflation.simulate import inflate, start_positions  # noqa: E402
-from inflation.solver import rigid_pins  # noqa: E402
+from airmat.check.inflation_check import design_strings  # noqa: E402
+from airmat.inflation.mesh import build_mattress_mesh  # noqa: E402
+from airmat.inflation.model import Parameters, build_model  # noqa: E402
+from airmat.inflation.simulate import inflate, start_positions  # noqa: E402
+from airmat.inflation.solver import rigid_pins  # noqa: E402
 from kangaroo_baseline import kangaroo_solve  # noqa: E402
 
 

@@ -8,13 +8,13 @@ Usage::
 The refinement's Gauss–Newton iterations run on the 40 mm mesh (``refine(...,
 coarsest=0.04)``), and each one solves with the factor of the Newton matrix
 for as many right-hand sides as the design has strings
-(:func:`check.adjoint.equilibrium_jacobian`). The matrix here is U_B's
+(:func:`airmat.check.adjoint.equilibrium_jacobian`). The matrix here is U_B's
 Hessian at a slightly stretched flat mattress with the preset's strings (the
 solver's pattern and ordering, a shift making it positive definite), the
 right-hand sides random (a solve's cost does not depend on their values).
-Columns: :meth:`~inflation.cholesky.ShiftedCholesky.solve` with ``one_call=False``
+Columns: :meth:`~airmat.inflation.cholesky.ShiftedCholesky.solve` with ``one_call=False``
 (cvxopt's ``cholmod.solve``, one CHOLMOD call per column, what it did before),
-:func:`inflation.cholmod_block.solve_many` on one thread (one call for all
+:func:`airmat.inflation.cholmod_block.solve_many` on one thread (one call for all
 columns) and on two (two column blocks side by side, what it does when a core
 is idle and the right-hand side is large: ``column_blocks``), median of 3; the
 largest difference between the first two relative to the solution, and
@@ -36,14 +36,14 @@ import numpy as np  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import design_strings  # noqa: E402
-from inflation.assembly import build_assembler  # noqa: E402
-from inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels  # noqa: E402
-from inflation.cholmod_block import available, column_blocks, solve_many  # noqa: E402
-from inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
-from inflation.mesh import build_mattress_mesh  # noqa: E402
-from inflation.model import build_model  # noqa: E402
-from inflation.solver import rigid_pins  # noqa: E402
+from airmat.check.inflation_check import design_strings  # noqa: E402
+from airmat.inflation.assembly import build_assembler  # noqa: E402
+from airmat.inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels  # noqa: E402
+from airmat.inflation.cholmod_block import available, column_blocks, solve_many  # noqa: E402
+from airmat.inflation.energy import block_pattern, hessian_blocks, smoothing_blocks  # noqa: E402
+from airmat.inflation.mesh import build_mattress_mesh  # noqa: E402
+from airmat.inflation.model import build_model  # noqa: E402
+from airmat.inflation.solver import rigid_pins  # noqa: E402
 
 
 def _median(fn, repeat: int = 3):

@@ -14,10 +14,10 @@ The strings then come from that Ŝ's curvature and the check (and, with
 ``--refine``, the refinement) compares the mid-surface. Each row gives the
 named-face deviation of the default next to the mid-surface deviation of the
 experiment, % of the diagonal, at 20 mm. The relaxation is wrapped by
-replacing ``design.surface.relax_to_target`` for the experiment's designs,
+replacing ``airmat.design.surface.relax_to_target`` for the experiment's designs,
 which are made with ``face_metric=False`` (the default named-face metric of
-design.face_metric would otherwise relax them once more) and ``free_face_span=False``
-(design.free_face reads Ŝ as the named face, its free face d away; here Ŝ is the
+airmat.design.face_metric would otherwise relax them once more) and ``free_face_span=False``
+(airmat.design.free_face reads Ŝ as the named face, its free face d away; here Ŝ is the
 mid-surface, whose metric already holds the faces' shortening).
 """
 
@@ -34,14 +34,14 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-import design.surface as surface_module  # noqa: E402
-from check.inflation_check import check  # noqa: E402
-from check.refinement import refine  # noqa: E402
+import airmat.design.surface as surface_module  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
+from airmat.check.refinement import refine  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from design.pipeline import DesignParams  # noqa: E402
-from design.closest_point import MeshProjector  # noqa: E402
-from design.curvature import principal_curvature  # noqa: E402
-from design.local_global import UAProblem, iterate  # noqa: E402
+from airmat.design.pipeline import DesignParams  # noqa: E402
+from airmat.design.closest_point import MeshProjector  # noqa: E402
+from airmat.design.curvature import principal_curvature  # noqa: E402
+from airmat.design.local_global import UAProblem, iterate  # noqa: E402
 
 ROUNDS = 2
 _default_relax = surface_module.relax_to_target

@@ -5,10 +5,10 @@ Usage::
     .venv/bin/python bench/bench_monte_carlo.py                      # 32 samples at 20 mm (the case)
     .venv/bin/python bench/bench_monte_carlo.py --samples 8 --resolution-mm 60   # a loaded machine
 
-Rows, all on the same K string-length samples (``check.monte_carlo.draw``, seed 0):
+Rows, all on the same K string-length samples (``airmat.check.monte_carlo.draw``, seed 0):
 
-- *direct*: :func:`inflation.simulate.inflate` called K times in this process (the baseline);
-- *1 Dask worker*: the same K tasks through :func:`inflation.simulate.inflate_many` on a
+- *direct*: :func:`airmat.inflation.simulate.inflate` called K times in this process (the baseline);
+- *1 Dask worker*: the same K tasks through :func:`airmat.inflation.simulate.inflate_many` on a
   LocalCluster of one single-threaded worker process, started and warmed (one task) beforehand,
   so the row measures Dask's overhead per task: scatter, scheduling, result transfer (its wall
   time minus the time spent inside the runs, which on a loaded machine also varies);
@@ -45,12 +45,12 @@ from designed_preset import designed_preset  # noqa: E402
 
 
 def main(argv=None) -> int:
-    from check.compare import deviation
-    from check.inflation_check import design_strings, named_face
-    from check.monte_carlo import draw, quantile_se
-    from inflation.mesh import build_mattress_mesh
-    from inflation.model import Parameters
-    from inflation.simulate import inflate, inflate_many
+    from airmat.check.compare import deviation
+    from airmat.check.inflation_check import design_strings, named_face
+    from airmat.check.monte_carlo import draw, quantile_se
+    from airmat.inflation.mesh import build_mattress_mesh
+    from airmat.inflation.model import Parameters
+    from airmat.inflation.simulate import inflate, inflate_many
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=32)
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     direct = [inflate(mesh, s, params=Parameters()) for s in sets]
     t_direct = time.perf_counter() - t0
 
-    from inflation.executor import local_cluster
+    from airmat.inflation.executor import local_cluster
 
     with local_cluster(1) as cluster:
         t0 = time.perf_counter()

@@ -7,13 +7,13 @@ Usage::
     .venv/bin/python bench/bench_newton_rule.py --rules shift:4 backtrack:4 backtrack:2
 
 A step of the inflation's Newton method that does not lower U_B is refused
-(:class:`inflation.solver._TrustRegion`). The rule in use raises the
+(:class:`airmat.inflation.solver._TrustRegion`). The rule in use raises the
 Levenberg–Marquardt shift (× ``MU_UP``, 4) and factorizes again; the
 alternative halves the same step (no new factorization) and leaves the
-raised shift to the next iteration (``inflation.solver.REFUSED_STEP =
+raised shift to the next iteration (``airmat.inflation.solver.REFUSED_STEP =
 "backtrack"``). Each rule ``RULE:UP`` is applied to the whole run (the
 check's inflation and every equilibrium of the refinement, whose own rule
-``check.trial_equilibrium.TRIAL_REFUSED_STEP`` is set to the same). Per preset (paper
+``airmat.check.trial_equilibrium.TRIAL_REFUSED_STEP`` is set to the same). Per preset (paper
 calibration values, seed 0, defaults) and rule: the open-loop inflation at
 its median lengths (the check's path, 20 mm), its Newton iterations over
 every level and its named face's RMS deviation from Ŝ; with ``--refine``, the
@@ -34,12 +34,12 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-import inflation.solver as solver  # noqa: E402
+import airmat.inflation.solver as solver  # noqa: E402
 from bench_refine import trial_refused, trial_rule  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from check.inflation_check import check  # noqa: E402
-from check.refinement import refine  # noqa: E402
-from design.presets import PRESETS  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
+from airmat.check.refinement import refine  # noqa: E402
+from airmat.design.presets import PRESETS  # noqa: E402
 
 MM = 1e-3
 
@@ -51,7 +51,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rules", nargs="+", type=trial_rule, default=[("shift", 4.0), ("backtrack", 2.0)],
                     help="RULE:MU_UP, one row each (default: shift:4, the rule in use, and backtrack:2)")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
-    ap.add_argument("--refine", action="store_true", help="also refine each design (check.refinement.refine)")
+    ap.add_argument("--refine", action="store_true", help="also refine each design (airmat.check.refinement.refine)")
     args = ap.parse_args(argv)
     names = list(PRESETS) if args.presets == ["all"] else args.presets
     res = args.resolution_mm * MM

@@ -1,4 +1,4 @@
-"""Benchmark: string lengths refined through the inflation (check.refinement) vs one inflation, side by side.
+"""Benchmark: string lengths refined through the inflation (airmat.check.refinement) vs one inflation, side by side.
 
 Usage::
 
@@ -35,19 +35,19 @@ surface": the refined face's RMS distance from the nearest points of the designe
 Ŝ's points along it (RMS).
 
 ``--jacobian-solve per-column all-at-once``: one row each with the Jacobian's right-hand
-sides solved by cvxopt one column at a time (as before ``inflation.cholmod_block``) and in
+sides solved by cvxopt one column at a time (as before ``airmat.inflation.cholmod_block``) and in
 one CHOLMOD call (the default), in a last column.
 
 ``--damping-hold 0 1``: one row (or spread row) each with the Gauss–Newton damping shrunk
 after every well-predicted step (0, the rule before) and held after an iteration that had to
-grow it (1, the default; ``check.gauss_newton.HOLD_AFTER_RETRY``), in a last column.
+grow it (1, the default; ``airmat.check.gauss_newton.HOLD_AFTER_RETRY``), in a last column.
 
 ``--trial-rule shift:4 backtrack:2``: one row (or spread row) each with the Newton method of the
 refinement's equilibria refactorizing a refused step with its shift ×4 (the check's rule) or halving
-it with the shift ×2 (``check.trial_equilibrium.TRIAL_REFUSED_STEP``), in a last column.
+it with the shift ×2 (``airmat.check.trial_equilibrium.TRIAL_REFUSED_STEP``), in a last column.
 
 ``--trial-newton 12 15 20``: one row (or spread row) each with the Newton iterations a trial
-equilibrium may take before its step counts as failed (``check.trial_equilibrium.TRIAL_NEWTON``,
+equilibrium may take before its step counts as failed (``airmat.check.trial_equilibrium.TRIAL_NEWTON``,
 20), in a last column.
 
 ``--draws K`` measures how much the outcome depends on the Gauss–Newton path: K
@@ -75,9 +75,9 @@ sys.path.insert(0, str(HERE))
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
-from check.refinement import refine  # noqa: E402
-from design.closest_point import MeshProjector  # noqa: E402
-from design.presets import PRESETS  # noqa: E402
+from airmat.check.refinement import refine  # noqa: E402
+from airmat.design.closest_point import MeshProjector  # noqa: E402
+from airmat.design.presets import PRESETS  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -106,7 +106,7 @@ def main(argv=None) -> int:
                     help="RULE:MU_UP of the refinement's equilibria (shift:4, the check's rule; backtrack:2); "
                          "one row each, in a last column")
     ap.add_argument("--trial-newton", type=int, nargs="+", default=None,
-                    help="Newton iterations a trial equilibrium may take (check.trial_equilibrium.TRIAL_NEWTON, "
+                    help="Newton iterations a trial equilibrium may take (airmat.check.trial_equilibrium.TRIAL_NEWTON, "
                          "20); one row each, in a last column")
     ap.add_argument("--from-flat", action="store_true",
                     help="a last column: the refined lengths inflated from the flat mattress (not counted in the "
@@ -165,9 +165,9 @@ def main(argv=None) -> int:
 
 def _from_flat(r) -> str:
     """The refined lengths inflated from the flat mattress (not from the open-loop equilibrium): RMS mm (% diag)."""
-    from check.compare import deviation
-    from check.inflation_check import design_strings
-    from inflation.simulate import inflate
+    from airmat.check.compare import deviation
+    from airmat.check.inflation_check import design_strings
+    from airmat.inflation.simulate import inflate
 
     d = r.design
     flat = inflate(r.open_loop_run.inflation.mesh, design_strings(d, "median"), tol=r.open_loop_run.tol)
@@ -183,8 +183,8 @@ def _setting(module: str, name: str, value):
 
 
 def trial_newton(cap):
-    """check.trial_equilibrium.TRIAL_NEWTON set to ``cap`` (None: left as it is)."""
-    return _setting("check.trial_equilibrium", "TRIAL_NEWTON", None if cap is None else int(cap))
+    """airmat.check.trial_equilibrium.TRIAL_NEWTON set to ``cap`` (None: left as it is)."""
+    return _setting("airmat.check.trial_equilibrium", "TRIAL_NEWTON", None if cap is None else int(cap))
 
 
 def trial_rule(text: str) -> tuple:
@@ -196,13 +196,13 @@ def trial_rule(text: str) -> tuple:
 
 
 def trial_refused(rule):
-    """check.trial_equilibrium.TRIAL_REFUSED_STEP set to ``rule`` (None: left as it is)."""
-    return _setting("check.trial_equilibrium", "TRIAL_REFUSED_STEP", rule)
+    """airmat.check.trial_equilibrium.TRIAL_REFUSED_STEP set to ``rule`` (None: left as it is)."""
+    return _setting("airmat.check.trial_equilibrium", "TRIAL_REFUSED_STEP", rule)
 
 
 def _per_column():
-    """The Jacobian solved by cvxopt one column at a time (inflation.cholmod_block disabled)."""
-    import inflation.cholesky as cholesky
+    """The Jacobian solved by cvxopt one column at a time (airmat.inflation.cholmod_block disabled)."""
+    import airmat.inflation.cholesky as cholesky
 
     return mock.patch.object(cholesky, "solve_many", lambda factor, b: None)
 
@@ -211,8 +211,8 @@ _JACOBIAN_SOLVES = {"all-at-once": contextlib.nullcontext, "per-column": _per_co
 
 
 def _damping_hold(hold):
-    """check.gauss_newton.HOLD_AFTER_RETRY set to ``hold`` (None: left as it is)."""
-    return _setting("check.gauss_newton", "HOLD_AFTER_RETRY", None if hold is None else bool(hold))
+    """airmat.check.gauss_newton.HOLD_AFTER_RETRY set to ``hold`` (None: left as it is)."""
+    return _setting("airmat.check.gauss_newton", "HOLD_AFTER_RETRY", None if hold is None else bool(hold))
 
 
 def _options(alpha, rounds) -> dict:

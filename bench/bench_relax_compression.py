@@ -6,7 +6,7 @@ Usage::
     .venv/bin/python bench/bench_relax_compression.py --presets saddle --ratios 1,0.5
 
 The inflated faces are membranes in tension: they wrinkle (shorten at almost
-no cost) but hardly stretch. U_A's A1 term (design.local_global) holds every
+no cost) but hardly stretch. U_A's A1 term (airmat.design.local_global) holds every
 edge of Ŝ to its rest length with one stiffness both ways. Here an edge
 shorter than its rest length is held by ``c`` times that stiffness: the
 energy ``½ k_A1 c (ε − ε0)²`` for ε < ε0, and the local step's target for such
@@ -33,8 +33,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import design.local_global as local_global  # noqa: E402
-from design.closest_point import MeshProjector  # noqa: E402
+import airmat.design.local_global as local_global  # noqa: E402
+from airmat.design.closest_point import MeshProjector  # noqa: E402
 from bench_family_gain import MM, floats, open_loop_cells  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 

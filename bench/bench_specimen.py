@@ -6,13 +6,13 @@ Usage::
 
 Each row is one strip (``n_series`` chained strings per row, rows aligned, L =
 300 mm, d = 70 mm, Δ = 0) on one mesh, inflated at one l/L, as ``airmat
-validate`` makes it (:func:`check.validation.validate_equation3`). It gives the
+validate`` makes it (:func:`airmat.check.validation.validate_equation3`). It gives the
 paper's κ₁ (the circle through consecutive folds on the string face) against
 Equation 3, and that polygon taken apart: its mean side (fold to fold) against
 Equation 3's L* = L − (π − θ) d and its interior angle against θ
-(:func:`check.validation.fold_geometry`), the string face's cross-section
+(:func:`airmat.check.validation.fold_geometry`), the string face's cross-section
 circles (a scan's cylinder fit) over the middle 2L (``airmat validate``'s) and
-over the strung length (:func:`check.validation.section_curvature`,
+over the strung length (:func:`airmat.check.validation.section_curvature`,
 ``span``), and how far the free face turns (a
 strip that turns 330° or more would touch itself; the simulation has no
 self-contact). Whether κ₁ depends on the strip's length or on the mesh tells a
@@ -32,7 +32,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 from airmat.units import MM  # noqa: E402
-from check.validation import SpecimenLayout, validate_equation3  # noqa: E402
+from airmat.check.validation import SpecimenLayout, validate_equation3  # noqa: E402
 
 
 def _floats(text: str) -> list:

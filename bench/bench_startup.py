@@ -39,8 +39,8 @@ _HELP = "import contextlib, io\nfrom airmat.cli import main\n" \
 
 
 def _mesh_module(tree: Path) -> str:
-    """The inflation mesh module: ``inflation.mesh``, formerly ``design.inflation.mesh``."""
-    return "inflation.mesh" if (tree / "inflation" / "mesh.py").exists() else "design.inflation.mesh"
+    """The inflation mesh module: ``airmat.inflation.mesh``, formerly ``design.inflation.mesh``."""
+    return "airmat.inflation.mesh" if (tree / "inflation" / "mesh.py").exists() else "design.inflation.mesh"
 
 
 def _open3d(tree: Path) -> str:
@@ -60,9 +60,9 @@ def cases(tree: Path) -> list[tuple[str, str]]:
         ("`import calib`", "import calib"),
         ("`import design`", "import design"),
         (f"`import {_mesh_module(tree)}`", f"import {_mesh_module(tree)}"),
-        ("`airmat fit` imports", parser + "import airmat.cli.fit, calib.cylinder_fit, calib.scan_io"),
-        ("`airmat calibrate` imports", parser + "import airmat.cli.calibrate, calib.calibrate, calib.plots, "
-                                                "calib.calibration_io"),
+        ("`airmat fit` imports", parser + "import airmat.cli.fit, airmat.calib.cylinder_fit, airmat.calib.scan_io"),
+        ("`airmat calibrate` imports", parser + "import airmat.cli.calibrate, airmat.calib.calibrate, airmat.calib.plots, "
+                                                "airmat.calib.calibration_io"),
         ("open3d for the closest points (`airmat design`, `refine`)", _open3d(tree)),
     ]
 

@@ -9,7 +9,7 @@ Usage::
 
 Each preset is designed in memory with the default pattern and the paper's
 calibration values (seed 0, :mod:`designed_preset`), inflated once at the
-median string lengths (``check.inflation_check.check``, ``envelope=False``)
+median string lengths (``airmat.check.inflation_check.check``, ``envelope=False``)
 and compared with Ŝ on every face. The named face is the one the check
 reports as its headline (the face opposite the larger share of bending, |κ| × span);
 ``mid`` was the headline before. The curvature columns give, over the dashes
@@ -31,8 +31,8 @@ sys.path.insert(0, str(HERE))
 import numpy as np  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
-from check.compare import realized_curvature  # noqa: E402
-from check.inflation_check import check  # noqa: E402
+from airmat.check.compare import realized_curvature  # noqa: E402
+from airmat.check.inflation_check import check  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 
 LARGE = ("vault2", "roof")
@@ -54,8 +54,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         res = args.large_mm if (name in LARGE and args.large_mm) else args.resolution_mm
         if args.pattern_mm:
-            from design.pipeline import DesignParams, design
-            from design.presets import preset
+            from airmat.design.pipeline import DesignParams, design
+            from airmat.design.presets import preset
 
             L, mu1, mu2 = (float(x) * MM for x in args.pattern_mm.split(","))
             result = design(*preset(name), params=DesignParams(L=L, mu1=mu1, mu2=mu2), progress=False)

@@ -6,14 +6,14 @@ from __future__ import annotations
 def designed_preset(preset: str, params=None, *, refine_at: float | None = None):
     """Design ``preset`` (paper calibration values, seed 0; ``params`` a DesignParams, default the
     defaults); return its DesignResult (SI). ``refine_at``: a resolution (m) at which the lengths are
-    then refined through the inflation (check.refinement.refine, defaults), the refined design returned."""
-    from design.pipeline import DesignParams, design
-    from design.presets import preset as load
+    then refined through the inflation (airmat.check.refinement.refine, defaults), the refined design returned."""
+    from airmat.design.pipeline import DesignParams, design
+    from airmat.design.presets import preset as load
 
     target, mattress = load(preset)
     result = design(target, mattress, params=DesignParams() if params is None else params, progress=False)
     if refine_at is None:
         return result
-    from check.refinement import refine
+    from airmat.check.refinement import refine
 
     return refine(result, resolution=refine_at).design

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inflation.energy import energy_and_gradient, pressure_forces
+from airmat.inflation.energy import energy_and_gradient, pressure_forces
 
 __all__ = ["KangarooResult", "kangaroo_solve"]
 

@@ -2,16 +2,16 @@
 
 Public API (SI units: metres, 1/m):
 
-- :func:`kappa1`, :func:`string_length` -- Equation 3 and its inverse (``calib.model``).
+- :func:`kappa1`, :func:`string_length` -- Equation 3 and its inverse (``airmat.calib.model``).
 - :func:`read_scan` -- E57, LAS/LAZ, PCD, PLY/OBJ/STL/OFF, GLB/glTF, PTS/XYZ/TXT scans to points in
-  metres (``calib.scan_io``; one reader per format in ``calib.scan_readers``).
-- :func:`fit_cylinder` -- robust cylinder fit of one scan (``calib.cylinder_fit``);
-  :func:`fit_cylinder_stable` -- the same, compared over several seeds (``calib.cylinder_stability``).
-- :func:`read_manifest` -- the calibration manifest CSV (``calib.manifest``).
-- :func:`sample_posterior` -- emcee posterior of Delta, d and the scatter sigma (``calib.posterior``).
-- :func:`kappa_curve` -- calibrated kappa_1(l/L) with 68/95% bands (``calib.curve``).
-- :func:`calibrate` -- manifest -> scans -> fits -> posterior -> curve (``calib.calibrate``).
-- :func:`write_calibration`, :func:`plot_curve`, :func:`plot_corner` -- output files (``calib.calibration_io``, ``calib.plots``);
+  metres (``airmat.calib.scan_io``; one reader per format in ``airmat.calib.scan_readers``).
+- :func:`fit_cylinder` -- robust cylinder fit of one scan (``airmat.calib.cylinder_fit``);
+  :func:`fit_cylinder_stable` -- the same, compared over several seeds (``airmat.calib.cylinder_stability``).
+- :func:`read_manifest` -- the calibration manifest CSV (``airmat.calib.manifest``).
+- :func:`sample_posterior` -- emcee posterior of Delta, d and the scatter sigma (``airmat.calib.posterior``).
+- :func:`kappa_curve` -- calibrated kappa_1(l/L) with 68/95% bands (``airmat.calib.curve``).
+- :func:`calibrate` -- manifest -> scans -> fits -> posterior -> curve (``airmat.calib.calibrate``).
+- :func:`write_calibration`, :func:`plot_curve`, :func:`plot_corner` -- output files (``airmat.calib.calibration_io``, ``airmat.calib.plots``);
   :func:`read_calibration` -- the same Calibration from its folder;
   :func:`curve_figure`, :func:`corner_figure` -- the same figures as ``matplotlib.figure.Figure``.
 """

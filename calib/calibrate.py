@@ -17,11 +17,12 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.progress import progress
-from calib.curve import KappaCurve, kappa_curve, most_common_L
-from calib.manifest import Manifest, read_manifest
-from calib.model import kappa1
-from calib.posterior import (DEFAULT_PRIORS, Posterior, Priors, check_sampler_options,
-                             sample_posterior, specimen_data)
+from airmat.calib.curve import KappaCurve, kappa_curve, most_common_L
+from airmat.calib.manifest import Manifest, read_manifest
+from airmat.calib.model import kappa1
+from airmat.calib.posterior import (DEFAULT_PRIORS, Posterior, Priors, check_sampler_options,
+                                   sample_posterior, specimen_data)
+from airmat.summary import Summarized, band_mm
 
 __all__ = ["SpecimenFit", "Calibration", "fit_specimens", "calibrate"]
 
@@ -65,8 +66,8 @@ class SpecimenFit:
     fit_converged: bool
 
 
-@dataclass(frozen=True)
-class Calibration:
+@dataclass(frozen=True, repr=False)
+class Calibration(Summarized):
     """Result of :func:`calibrate`.
 
     Attributes
@@ -93,6 +94,12 @@ class Calibration:
     timings: dict = field(default_factory=dict)
 
 
+    def _summary(self):
+        p = self.posterior
+        return "Calibration", [("specimens", len(self.specimens)), ("Δ", band_mm(p.delta)), ("d", band_mm(p.d)),
+                               ("σ", f"{p.sigma.median:.3g} 1/m"), ("converged", p.converged)]
+
+
 def _reference_face(kappa: float, se: float, offset: float, path: str):
     """Curvature and error of the face ``offset`` outward of the scanned one: 1 / (R + offset)."""
     scale = 1.0 + kappa * offset  # (R + offset) / R
@@ -104,8 +111,8 @@ def _reference_face(kappa: float, se: float, offset: float, path: str):
 
 def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options: dict):
     """Read and fit specimen i; returns (SpecimenFit, read seconds, fit seconds)."""
-    from calib.cylinder_stability import fit_cylinder_stable
-    from calib.scan_io import read_scan
+    from airmat.calib.cylinder_stability import fit_cylinder_stable
+    from airmat.calib.scan_io import read_scan
 
     path = manifest.scan_paths[i]
     t0 = time.perf_counter()
@@ -144,7 +151,7 @@ def fit_specimens(manifest: Manifest, *, scan_units: str | None = None, seed=0,
     seed : int
         Seeds the per-scan random steps (mesh sampling, RANSAC).
     fit_options : dict, optional
-        Extra keyword options of ``calib.cylinder_fit.fit_cylinder``.
+        Extra keyword options of ``airmat.calib.cylinder_fit.fit_cylinder``.
 
     Returns
     -------
@@ -185,11 +192,11 @@ def calibrate(manifest, *, scan_units: str | None = None, n_walkers: int = 32, m
     Parameters
     ----------
     manifest : str, PathLike or Manifest
-        The manifest CSV (see :mod:`calib.manifest`) or an already read one.
+        The manifest CSV (see :mod:`airmat.calib.manifest`) or an already read one.
     scan_units : {"m", "cm", "mm", "in"}, optional
         Unit of the scan files.
     n_walkers, max_steps : int
-        emcee ensemble size and chain-length cap (:func:`calib.posterior.sample_posterior`).
+        emcee ensemble size and chain-length cap (:func:`airmat.calib.posterior.sample_posterior`).
     seed : int
         Seeds every random step; the same seed gives the same result.
     priors : Priors

@@ -4,7 +4,7 @@ Files use millimetres for lengths and 1/m for curvatures, with the units in
 every field name (``delta_mm``, ``kappa_per_m``). :func:`write_calibration`
 puts the files in a given folder (the caller stages it with
 ``airmat.atomic.staged_dir`` so a failed run leaves nothing half-written);
-:func:`read_calibration` builds the same :class:`~calib.calibrate.Calibration`
+:func:`read_calibration` builds the same :class:`~airmat.calib.calibrate.Calibration`
 from such a folder (SI units), so that the designer takes a calibration from
 memory or from files alike.
 """
@@ -25,7 +25,7 @@ from airmat.errors import InputError
 from airmat.json_doc import dumps, finish
 from airmat.npz_bytes import npz_bytes
 from airmat.units import M_TO_MM, MM
-from calib.likelihood import DEFAULT_PRIORS, PARAM_NAMES, Priors
+from airmat.calib.likelihood import DEFAULT_PRIORS, PARAM_NAMES, Priors
 
 __all__ = ["calibration_dict", "specimens_csv", "write_calibration", "read_calibration", "summary_text"]
 
@@ -55,7 +55,7 @@ def calibration_dict(cal, *, truth: dict | None = None) -> dict:
 
     Parameters
     ----------
-    cal : calib.calibrate.Calibration
+    cal : airmat.calib.calibrate.Calibration
     truth : dict, optional
         Known true values (e.g. a synthetic set's truth.json), copied under ``"truth"``.
     """
@@ -216,7 +216,7 @@ def _string_spacing(doc: dict, arrays: dict, folder: Path) -> float:
 
 
 def _specimens(rows: list, manifest_path: str):
-    from calib.calibrate import SpecimenFit
+    from airmat.calib.calibrate import SpecimenFit
 
     base = Path(manifest_path).parent
     needed = {"scan", "l_mm", "L_mm", "kappa_per_m", "kappa_se_per_m", "inlier_fraction", "rms_mm", "arc_deg",
@@ -243,7 +243,7 @@ def _priors(doc: dict, L_min: float) -> Priors:
 
 
 def read_calibration(folder):
-    """Read the output folder of ``airmat calibrate`` back into a :class:`~calib.calibrate.Calibration`.
+    """Read the output folder of ``airmat calibrate`` back into a :class:`~airmat.calib.calibrate.Calibration`.
 
     The posterior samples come from ``posterior.npz`` bit for bit; the
     specimens, the curve and the diagnostics from ``calibration.json`` (their
@@ -266,10 +266,10 @@ def read_calibration(folder):
     airmat.errors.InputError
         With ``path=`` the offending file, naming the missing field or array.
     """
-    from calib.calibrate import Calibration
-    from calib.curve import KappaCurve
-    from calib.manifest import Manifest
-    from calib.posterior import ParamSummary, Posterior
+    from airmat.calib.calibrate import Calibration
+    from airmat.calib.curve import KappaCurve
+    from airmat.calib.manifest import Manifest
+    from airmat.calib.posterior import ParamSummary, Posterior
 
     folder = Path(folder)
     if folder.is_file():

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.model import kappa1
+from airmat.calib.model import kappa1
 
 __all__ = ["KappaCurve", "kappa_curve", "most_common_L"]
 

@@ -2,21 +2,21 @@
 
 The pipeline, each step in its own module:
 
-1. local noise from voxel roughness (:mod:`calib.scan_noise`), which sets
+1. local noise from voxel roughness (:mod:`airmat.calib.scan_noise`), which sets
    every threshold (so they scale with the scanner, not bare constants);
 2. voxel downsampling that drops sparse clutter voxels
-   (:mod:`calib.voxel_grid`), normals (:mod:`calib.point_normals`), then
-   the support plane(s) the specimen rests on (:mod:`calib.support_plane`,
+   (:mod:`airmat.calib.voxel_grid`), normals (:mod:`airmat.calib.point_normals`), then
+   the support plane(s) the specimen rests on (:mod:`airmat.calib.support_plane`,
    a seeded RANSAC), taking care that a flat specimen is not one;
-3. axis from the scatter of the normals, circle by RANSAC (:mod:`calib.circle_ransac`)
+3. axis from the scatter of the normals, circle by RANSAC (:mod:`airmat.calib.circle_ransac`)
    in the projection along it, or a quadratic height field for a nearly
-   flat specimen (:mod:`calib.cylinder_init`);
+   flat specimen (:mod:`airmat.calib.cylinder_init`);
 4. robust geometric least squares over axis direction, position and
-   curvature (:mod:`calib.cylinder_lsq`): a trust region on the
+   curvature (:mod:`airmat.calib.cylinder_lsq`): a trust region on the
    downsampled points, then rounds on a random subset of the
    full-resolution points near the surface that leave out the string-end
-   grooves (:mod:`calib.groove_bands`), then Newton steps on all of them
-   (:mod:`calib.cylinder_irls`), with the standard error of kappa from a
+   grooves (:mod:`airmat.calib.groove_bands`), then Newton steps on all of them
+   (:mod:`airmat.calib.cylinder_irls`), with the standard error of kappa from a
    cluster-robust sandwich covariance.
 
 Steps 1-3 look at a random subset of at most 100,000 points; step 4 at
@@ -35,14 +35,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import InputError, NotACylinderError
-from calib.cylinder_init import initial_cylinder
-from calib.cylinder_irls import kappa_standard_error, polish
-from calib.cylinder_lsq import arc_from_local, distance_from_local, refine
-from calib.cylinder_refine import full_resolution_fit, surface_spread
-from calib.scan_noise import local_noise
-from calib.point_normals import normals_knn
-from calib.scan_prep import specimen_candidates, specimen_voxel
-from calib.voxel_grid import voxel_cloud
+from airmat.calib.cylinder_init import initial_cylinder
+from airmat.calib.cylinder_irls import kappa_standard_error, polish
+from airmat.calib.cylinder_lsq import arc_from_local, distance_from_local, refine
+from airmat.calib.cylinder_refine import full_resolution_fit, surface_spread
+from airmat.calib.scan_noise import local_noise
+from airmat.calib.point_normals import normals_knn
+from airmat.calib.scan_prep import specimen_candidates, specimen_voxel
+from airmat.calib.voxel_grid import voxel_cloud
+from airmat.summary import Summarized, mm
 
 __all__ = ["CylinderFit", "fit_cylinder", "MIN_FIT_POINTS", "MAX_SPECIMEN_EXTENT"]
 
@@ -58,8 +59,8 @@ SPARSE_SPECIMEN_POINTS = 5000
 MAX_SPECIMEN_EXTENT = 4.0
 
 
-@dataclass(frozen=True)
-class CylinderFit:
+@dataclass(frozen=True, repr=False)
+class CylinderFit(Summarized):
     """A cylinder fitted to a specimen scan (SI units).
 
     Attributes
@@ -105,7 +106,7 @@ class CylinderFit:
         The final least squares' message.
     kappa_spread : float
         Largest difference of kappa between fits from other seeds
-        (:func:`calib.cylinder_stability.fit_cylinder_stable`), 1/m; 0 when
+        (:func:`airmat.calib.cylinder_stability.fit_cylinder_stable`), 1/m; 0 when
         not compared.
     n_seeds : int
         Seeds the fit was compared over (1: none).
@@ -130,6 +131,12 @@ class CylinderFit:
     message: str
     kappa_spread: float = 0.0
     n_seeds: int = 1
+
+
+    def _summary(self):
+        return "CylinderFit", [("radius", mm(self.radius, 2)), ("κ", f"{self.kappa:.4g} ± {self.kappa_se:.2g} 1/m"),
+                               ("inliers", f"{self.n_inliers}/{self.n_points}"), ("rms", mm(self.rms, 2)),
+                               ("arc", f"{self.arc_deg:.0f}°"), ("converged", self.converged)]
 
 
 def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fraction: float = 0.5,
@@ -174,7 +181,7 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     groove_sigmas : float
         Arc bands whose median residual departs by more than this many noise
         levels from the best cross-section circle (string-end grooves) are
-        left out of the fit (:mod:`calib.groove_bands`).
+        left out of the fit (:mod:`airmat.calib.groove_bands`).
     n_subsample : int
         Size of the random subset the selection rounds run on before the
         final pass over every point (speed).
@@ -182,7 +189,7 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         Arc bins of the cluster-robust standard error.
     quantization : float
         Step of the coordinates as the file stored them (m; 32-bit floats
-        far from the origin, :attr:`calib.scan_io.Scan.quantization`):
+        far from the origin, :attr:`airmat.calib.scan_io.Scan.quantization`):
         refused when it exceeds the noise, as the surface is then lost.
     max_extent : float
         Refuse when the fitted face (its inliers' robust bounding diagonal)

@@ -9,7 +9,7 @@ the middle eigenvalue of the banded moments measures how well the normals
 lie in a plane: near 0 for a cylinder, near 1 for a sphere cap or a box.
 
 The points are then projected along the axis and a circle is found by
-RANSAC (:func:`calib.circle_ransac.circle_ransac`, scikit-image's
+RANSAC (:func:`airmat.calib.circle_ransac.circle_ransac`, scikit-image's
 estimator vectorized over the trials). A specimen
 that is nearly flat (its normals spread over less than ``flat_deg``)
 has no usable normal scatter; it is initialized instead from a robust
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import NotACylinderError
-from calib.circle_ransac import circle_ransac
-from calib.cylinder_lsq import CylinderFrame
+from airmat.calib.circle_ransac import circle_ransac
+from airmat.calib.cylinder_lsq import CylinderFrame
 
 __all__ = ["NormalScatter", "normal_scatter", "InitialCylinder", "initial_cylinder", "circle_init",
            "height_field_init"]

@@ -1,7 +1,7 @@
-"""Robust Gauss-Newton for the cylinder of :mod:`calib.cylinder_lsq`, and the error of kappa.
+"""Robust Gauss-Newton for the cylinder of :mod:`airmat.calib.cylinder_lsq`, and the error of kappa.
 
 :func:`polish` minimizes the same robust cost as
-:func:`calib.cylinder_lsq.refine` with 5x5 normal equations (Newton's
+:func:`airmat.calib.cylinder_lsq.refine` with 5x5 normal equations (Newton's
 curvature ``sum psi' J J^T`` near the optimum, the IRLS one elsewhere), so
 each iteration is one pass over the points, which matters at a million
 points. :func:`kappa_standard_error` gives the M-estimator sandwich
@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from airmat.errors import ConvergenceError
-from calib.cylinder_lsq import CylinderFrame, CylinderProblem, RefineResult, arc_position, left_jacobian
+from airmat.calib.cylinder_lsq import CylinderFrame, CylinderProblem, RefineResult, arc_position, left_jacobian
 
 __all__ = ["polish", "kappa_standard_error", "loss_weights", "loss_slopes", "robust_cost"]
 
@@ -203,7 +203,7 @@ def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: f
         ``RefineResult.state`` of a :func:`polish` on the same points with the
         same ``f_scale`` and ``loss`` (saves passes over them).
     arc : ndarray of shape (N,), optional
-        The points' arc positions in ``frame`` (m, :func:`calib.cylinder_lsq.arc_position`;
+        The points' arc positions in ``frame`` (m, :func:`airmat.calib.cylinder_lsq.arc_position`;
         saves another).
 
     Returns

@@ -21,7 +21,7 @@ importing scipy.optimize would cost more than the fit) over 5 parameters:
 a rotation vector of the frame (origin fixed), the shift ``rho`` of the origin along the normal, and
 kappa, in coordinates centred on the origin and scaled by the points'
 spread (so the problem is well conditioned at any position and size).
-:mod:`calib.cylinder_irls` solves the same problem on a million points and
+:mod:`airmat.calib.cylinder_irls` solves the same problem on a million points and
 gives the standard error of kappa.
 """
 
@@ -171,7 +171,7 @@ class CylinderProblem:
     """Normalized coordinates and the residual/Jacobian closures of one fit.
 
     Shared by :func:`refine` (Levenberg-Marquardt) and
-    :func:`calib.cylinder_irls.polish` (Gauss-Newton on a million points).
+    :func:`airmat.calib.cylinder_irls.polish` (Gauss-Newton on a million points).
 
     Coordinates are stored transposed, (3, N), and the Jacobian is built as
     (5, N) rows, so that every pass over the points is contiguous and the
@@ -271,7 +271,7 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     f_scale : float
         Residual scale of the robust loss (m), about the noise standard deviation.
     loss : str
-        A loss of :func:`calib.cylinder_irls.loss_weights` ("soft_l1", "huber",
+        A loss of :func:`airmat.calib.cylinder_irls.loss_weights` ("soft_l1", "huber",
         "cauchy", "arctan", "linear"), as scipy's least_squares defines them.
     max_nfev : int
         Most function evaluations.
@@ -288,7 +288,7 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     airmat.errors.ConvergenceError
         If the fit produced non-finite parameters.
     """
-    from calib.cylinder_irls import loss_weights, robust_cost  # that module builds on this one
+    from airmat.calib.cylinder_irls import loss_weights, robust_cost  # that module builds on this one
 
     prob = CylinderProblem(np.asarray(points, dtype=float), frame)
     f = f_scale / prob.scale

@@ -2,8 +2,8 @@
 
 Starting from a cylinder fitted to a downsampled cloud, rounds on a random
 subset of the full-resolution points select the points near the surface,
-drop the groove bands (:mod:`calib.groove_bands`), and refit
-(:func:`calib.cylinder_irls.polish`) until the selection settles; then one
+drop the groove bands (:mod:`airmat.calib.groove_bands`), and refit
+(:func:`airmat.calib.cylinder_irls.polish`) until the selection settles; then one
 pass on every point. Also the working residual scale: the local noise, or
 how far the whole face departs from a cylinder when that is more (a
 simulated or wrinkled face). Lengths in metres.
@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from airmat.errors import NotACylinderError
-from calib.cylinder_irls import polish
-from calib.cylinder_lsq import arc_from_local, distance_from_local, residuals
-from calib.groove_bands import groove_bands
+from airmat.calib.cylinder_irls import polish
+from airmat.calib.cylinder_lsq import arc_from_local, distance_from_local, residuals
+from airmat.calib.groove_bands import groove_bands
 
 __all__ = ["surface_spread", "full_resolution_fit"]
 
@@ -65,11 +65,11 @@ def full_resolution_fit(cand, frame, *, sigma, band_sigmas, loss, f_scale, n_sub
 
     Rounds on a random subset of at most ``n_subsample`` points: select the
     points within the band minus the groove bands
-    (:func:`calib.groove_bands.groove_bands`, coarse to fine: the band
+    (:func:`airmat.calib.groove_bands.groove_bands`, coarse to fine: the band
     tolerance shrinks to ``groove_sigmas`` over the first rounds, so that a
     start that followed a groove is pulled off it first) and refit, until
     the selection settles; then the same selection on every point and
-    Gauss-Newton steps on all of them (:func:`calib.cylinder_irls.polish`,
+    Gauss-Newton steps on all of them (:func:`airmat.calib.cylinder_irls.polish`,
     which starts within the subsample's sampling error of the optimum).
     """
     sub = cand[rng.choice(len(cand), n_subsample, replace=False)] if len(cand) > n_subsample else cand

@@ -1,6 +1,6 @@
 """A cylinder fit checked over several seeds: widen its error bar to their spread, or refuse.
 
-The random steps of :func:`calib.cylinder_fit.fit_cylinder` (subsets, plane
+The random steps of :func:`airmat.calib.cylinder_fit.fit_cylinder` (subsets, plane
 search, RANSAC) can land on different local optima on a hard scan (a real
 mug scan gave R = 51.4, 43.3, 38.1, 38.1 mm for seeds 0-3). This runs the
 fit with ``n_seeds`` seeds (the extra ones on a random subset, for speed:
@@ -25,7 +25,7 @@ import logging
 import numpy as np
 
 from airmat.errors import NotACylinderError
-from calib.cylinder_fit import CylinderFit, fit_cylinder
+from airmat.calib.cylinder_fit import CylinderFit, fit_cylinder
 
 __all__ = ["fit_cylinder_stable", "check_subset_size"]
 
@@ -53,7 +53,7 @@ def check_subset_size(n_points: int, small: int = 50_000, large: int = 25_000) -
 
 def fit_cylinder_stable(points, *, seed=0, n_seeds: int = 3, n_check_points: int | None = None,
                         n_sigma: float = 3.0, max_spread_rel: float = 0.02, **options) -> CylinderFit:
-    """:func:`calib.cylinder_fit.fit_cylinder` compared over ``n_seeds`` seeds.
+    """:func:`airmat.calib.cylinder_fit.fit_cylinder` compared over ``n_seeds`` seeds.
 
     Parameters
     ----------

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calib.cylinder_lsq import CylinderFrame, arc_position, residuals_and_jacobian
+from airmat.calib.cylinder_lsq import CylinderFrame, arc_position, residuals_and_jacobian
 
 __all__ = ["GrooveBands", "groove_bands"]
 
@@ -61,7 +61,7 @@ class GrooveBands:
         return self.classify_arc(arc_position(points, frame))
 
     def classify_arc(self, s: np.ndarray) -> np.ndarray:
-        """(M,) bool: which arc positions ``s`` (m, :func:`calib.cylinder_lsq.arc_position`) fall in
+        """(M,) bool: which arc positions ``s`` (m, :func:`airmat.calib.cylinder_lsq.arc_position`) fall in
         the excluded bands."""
         if not self.bad.any():
             return np.zeros(len(s), dtype=bool)

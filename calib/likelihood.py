@@ -1,6 +1,6 @@
 """The statistical model of the calibration: likelihood and priors of (Delta, d, sigma).
 
-See :mod:`calib.posterior` for the model in words and the priors; this module
+See :mod:`airmat.calib.posterior` for the model in words and the priors; this module
 holds the pieces the sampler evaluates: the prior bounds (:class:`Priors`),
 the checked data (:class:`SpecimenData`) and the vectorized
 :func:`log_probability` (one Equation 3 call per batch of walkers).
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import InputError
-from calib.model import kappa1
+from airmat.calib.model import kappa1
 
 __all__ = ["PARAM_NAMES", "Priors", "DEFAULT_PRIORS", "SpecimenData", "specimen_data",
            "log_probability"]
@@ -24,7 +24,7 @@ PARAM_NAMES = ("delta", "d", "sigma")
 
 @dataclass(frozen=True)
 class Priors:
-    """Bounds and shapes of the priors (SI units; stated in :mod:`calib.posterior`).
+    """Bounds and shapes of the priors (SI units; stated in :mod:`airmat.calib.posterior`).
 
     Attributes
     ----------

@@ -26,7 +26,7 @@ def curve_figure(cal, *, truth: dict | None = None):
 
     Parameters
     ----------
-    cal : calib.calibrate.Calibration
+    cal : airmat.calib.calibrate.Calibration
     truth : dict, optional
         ``{"delta_mm", "d_mm"}``: the true curve is drawn dashed.
 
@@ -34,7 +34,7 @@ def curve_figure(cal, *, truth: dict | None = None):
     -------
     matplotlib.figure.Figure
     """
-    from calib.model import kappa1
+    from airmat.calib.model import kappa1
 
     c, p = cal.curve, cal.posterior
     fig = new_figure((6.4, 4.4), layout="constrained")
@@ -72,7 +72,7 @@ def corner_figure(posterior, *, truths: dict | None = None):
 
     Parameters
     ----------
-    posterior : calib.posterior.Posterior
+    posterior : airmat.calib.posterior.Posterior
     truths : dict, optional
         ``{"delta_mm", "d_mm", "sigma_per_m"}`` (any subset): marked on the plot.
 

@@ -41,9 +41,9 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.progress import progress
-from calib.likelihood import (DEFAULT_PRIORS, PARAM_NAMES, Priors, SpecimenData,
+from airmat.calib.likelihood import (DEFAULT_PRIORS, PARAM_NAMES, Priors, SpecimenData,
                               log_probability, specimen_data)
-from calib.model import kappa1
+from airmat.calib.model import kappa1
 
 __all__ = ["Priors", "DEFAULT_PRIORS", "SpecimenData", "Posterior", "ParamSummary",
            "PARAM_NAMES", "specimen_data", "log_probability", "least_squares_start",
@@ -222,7 +222,7 @@ def sample_posterior(data: SpecimenData, *, priors: Priors = DEFAULT_PRIORS, n_w
     as the default stretch move here (integrated autocorrelation times of
     11-16 steps against 30-35 on 12 specimens, sampling log sigma), so about
     600-900 steps of 32 walkers reach 50 tau. Each step evaluates Equation 3 twice (once per half
-    ensemble) on a (16, S) batch; ``calib.model.kappa1`` costs 0.25-0.5 ms per (16, 12) call
+    ensemble) on a (16, S) batch; ``airmat.calib.model.kappa1`` costs 0.25-0.5 ms per (16, 12) call
     (``bench/bench_calibration.py``), so the model takes under a second of the run (the whole
     MCMC of 32 walkers x 700 steps: 1.2 s on the 2-core reference machine).
 

@@ -1,6 +1,6 @@
 """Read specimen scans in the formats scanners export, in metres, or refuse them in one line.
 
-The formats and their libraries are in :mod:`calib.scan_readers` (one reader
+The formats and their libraries are in :mod:`airmat.calib.scan_readers` (one reader
 per format, picked by suffix). This module adds what a calibration needs on
 top: re-centring of georeferenced coordinates in float64 before anything
 else, unit conversion to metres, dropping non-finite points (organized
@@ -22,7 +22,7 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.units import SCAN_UNITS
-from calib.scan_readers import SUPPORTED_SUFFIXES, read_cloud
+from airmat.calib.scan_readers import SUPPORTED_SUFFIXES, read_cloud
 
 __all__ = ["Scan", "read_scan", "SUPPORTED_SUFFIXES", "MIN_POINTS", "MIN_EXTENT", "MAX_EXTENT",
            "TYPICAL_EXTENT"]

@@ -3,7 +3,7 @@
 The cloud is binned into cubic voxels holding about ``target_per_voxel``
 points each; in every well-filled voxel the spread about the local best
 plane (the smallest eigenvalue of the voxel's covariance,
-:func:`calib.voxel_grid.voxel_moments`) measures the noise normal to the
+:func:`airmat.calib.voxel_grid.voxel_moments`) measures the noise normal to the
 surface. The median over voxels is robust to clutter, edges and the
 floor-specimen junction.
 
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.voxel_grid import voxel_moments
+from airmat.calib.voxel_grid import voxel_moments
 
 __all__ = ["NoiseEstimate", "local_noise"]
 

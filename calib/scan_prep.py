@@ -9,9 +9,9 @@ import logging
 
 import numpy as np
 
-from calib.point_normals import normals_knn
-from calib.support_plane import find_support_planes
-from calib.voxel_grid import voxel_cloud
+from airmat.calib.point_normals import normals_knn
+from airmat.calib.support_plane import find_support_planes
+from airmat.calib.voxel_grid import voxel_cloud
 
 __all__ = ["specimen_voxel", "specimen_candidates"]
 
@@ -37,7 +37,7 @@ def specimen_candidates(pts, sub, sigma, diag, est, rng):
 
     ``sub`` is a random subset of ``pts`` (m), ``sigma`` the noise (m),
     ``diag`` the scan's robust bounding diagonal (m) and ``est`` its
-    :class:`calib.scan_noise.NoiseEstimate`.
+    :class:`airmat.calib.scan_noise.NoiseEstimate`.
     """
     # coarse grid for the plane search; sparse scans need voxels holding a few points
     coarse = voxel_cloud(sub, max(diag / 100, 0.6 * est.voxel), min_count=3).points

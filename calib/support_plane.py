@@ -1,7 +1,7 @@
 """Find the plane(s) a specimen rests on (floor, table) so the cylinder fit can ignore them.
 
 Planes are found one after another by a seeded RANSAC
-(:func:`calib.plane_ransac.segment_plane`) on a downsampled cloud and refined by least squares
+(:func:`airmat.calib.plane_ransac.segment_plane`) on a downsampled cloud and refined by least squares
 on their inliers. Not every plane RANSAC finds is a support:
 
 - the slab a plane cuts out of a *curved* specimen around a tangent line
@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.plane_ransac import segment_plane
+from airmat.calib.plane_ransac import segment_plane
 
 __all__ = ["Plane", "SupportPlanes", "find_support_planes"]
 

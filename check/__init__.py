@@ -2,12 +2,12 @@
 
 Public API (SI units: metres, 1/m):
 
-- :func:`check` -- inflate a :class:`~design.pipeline.DesignResult` at the median string
+- :func:`check` -- inflate a :class:`~airmat.design.pipeline.DesignResult` at the median string
   lengths and at both tolerance ends, and K Monte-Carlo samples of them (``inflation_check``).
 - :class:`MonteCarloDraws`, :class:`MonteCarloResult` -- the sampled string lengths and the
   statistics of their runs (``monte_carlo``).
 - :func:`deviation`, :func:`realized_curvature`, :func:`surface_at` -- an inflation against Ŝ on a
-  named face (:func:`design.face_metric.length_keeping_face`: the face opposite the strings) (``compare``).
+  named face (:func:`airmat.design.face_metric.length_keeping_face`: the face opposite the strings) (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
 - :func:`refine` -- the string lengths refined through the inflated equilibrium (adjoint
   Gauss–Newton), a refined DesignResult and its ``refine`` block (``refinement``, ``adjoint``,

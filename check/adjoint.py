@@ -9,11 +9,11 @@ not move). A scalar objective ``J(x)`` then has the gradient
 ``H`` (:func:`adjoint_gradient`); the whole Jacobian ``dx/dl*`` costs one
 back-substitution per string (:func:`equilibrium_jacobian`), for a
 Gauss–Newton step. ``H`` is factored once at the equilibrium with the
-solver's own sparse Cholesky (:class:`~inflation.cholesky.ShiftedCholesky`,
+solver's own sparse Cholesky (:class:`~airmat.inflation.cholesky.ShiftedCholesky`,
 CHOLMOD).
 
 A string is a tension-only spring of stiffness ``k = EA / max(l*, d)`` and
-smoothed onset width ``w = c_w max(l*, d)`` (:func:`inflation.model.build_model`):
+smoothed onset width ``w = c_w max(l*, d)`` (:func:`airmat.inflation.model.build_model`):
 its force along ``r̂`` is ``k f(|r| - l*; w)``, so ``∂g/∂l*`` has the three
 terms ``k' f + k (-∂f/∂s + ∂f/∂w w')`` times the end weights times ``r̂``;
 a slack string contributes 0. SI units.
@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from inflation.assembly import Assembler
-from inflation.cholesky import ShiftedCholesky
-from inflation.energy import Model, Springs, hessian_blocks, smoothing_blocks, spring_profile
+from airmat.inflation.assembly import Assembler
+from airmat.inflation.cholesky import ShiftedCholesky
+from airmat.inflation.energy import Model, Springs, hessian_blocks, smoothing_blocks, spring_profile
 
 __all__ = ["rest_derivative", "EquilibriumFactor", "factor_equilibrium", "equilibrium_jacobian",
            "adjoint_gradient"]
@@ -40,7 +40,7 @@ def rest_derivative(s: Springs, x: np.ndarray, thickness: float) -> sp.csc_matri
     Parameters
     ----------
     s : Springs
-        The external strings (tension-only, :func:`inflation.strings.attach_strings`), with
+        The external strings (tension-only, :func:`airmat.inflation.strings.attach_strings`), with
         ``k = EA / max(l*, d)`` and ``smooth = c_w max(l*, d)``.
     x : ndarray of shape (n, 3)
         Vertex positions (m).

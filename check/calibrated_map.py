@@ -1,14 +1,14 @@
 """The calibrated length map's table: simulated specimens at the calibration's L, and its disk cache.
 
 For a handful of simulated rest lengths l* the specimen of
-:mod:`check.validation` (parallel chained strings on a strip) is inflated and
+:mod:`airmat.check.validation` (parallel chained strings on a strip) is inflated and
 its κ₁ measured as the calibration measures a specimen: circles fitted to
-the cross-sections of the string face (:func:`~check.validation.specimen_kappa`),
+the cross-sections of the string face (:func:`~airmat.check.validation.specimen_kappa`),
 as a cylinder fit of a scan reads it (the calibrated curve is Equation 3 fitted
 to such fits). Each simulated κ₁ is then read back
 through the calibrated Equation 3 (posterior median Δ, d): the real length l
 that bends the real mattress to that κ₁. The rows (l, l*) are the table of
-:class:`~check.length_map.CalibratedLengthMap`; a last row (L − 2Δ, L) joins
+:class:`~airmat.check.length_map.CalibratedLengthMap`; a last row (L − 2Δ, L) joins
 the two flat lengths. The table is cached per (airmat version, L, Δ, d,
 mattress thickness, resolution, simulator parameters, specimen layout) under
 ``$AIRMAT_CACHE`` (default ``~/.cache/airmat``), written atomically, so the
@@ -44,7 +44,7 @@ def _grid(L, delta, d, thickness, n):
     """Rest lengths l* (m) to simulate: from what Equation 3 (Δ = 0, d = thickness) gives for the
     calibrated κ₁ at l = L/4, up to 0.97 L (the simulator bends more than Equation 3 at short l,
     so the shortest row lands below L/4)."""
-    from calib.model import kappa1, string_length
+    from airmat.calib.model import kappa1, string_length
 
     k_lo = kappa1(0.25 * L, L, delta, d)
     lo = float(string_length(np.minimum(k_lo, 0.999 * kappa1(0.0, L, 0.0, thickness)), L, 0.0, thickness))
@@ -63,7 +63,7 @@ def specimen_table(*, L, delta, d, thickness, resolution, params=None, workers=1
         Mattress thickness of the simulated specimen (m).
     resolution : float
         Mesh edge length (m).
-    params : inflation.model.Parameters, optional
+    params : airmat.inflation.model.Parameters, optional
     workers : int
     n : int
         Simulated rest lengths.
@@ -75,8 +75,8 @@ def specimen_table(*, L, delta, d, thickness, resolution, params=None, workers=1
         last row is (L − 2Δ, L, 0). Rows whose run did not converge, whose κ₁ does not
         decrease with l*, or beyond the calibrated Equation 3's reach are left out (logged).
     """
-    from calib.model import kappa_max, string_length
-    from check.validation import SpecimenLayout, specimen_kappa
+    from airmat.calib.model import kappa_max, string_length
+    from airmat.check.validation import SpecimenLayout, specimen_kappa
 
     layout = SpecimenLayout(L=L, thickness=thickness)
     l_sim = _grid(L, delta, d, thickness, n)
@@ -101,7 +101,7 @@ def _key(**values) -> tuple[str, dict]:
 
 
 def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, workers=1, cache=True):
-    """The :class:`~check.length_map.CalibratedLengthMap` of a calibration median, from the cache or simulated.
+    """The :class:`~airmat.check.length_map.CalibratedLengthMap` of a calibration median, from the cache or simulated.
 
     Parameters
     ----------
@@ -111,7 +111,7 @@ def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, wo
         Mattress thickness (m).
     resolution : float
         Mesh edge length (m): build the map at the resolution of the check that uses it.
-    params : inflation.model.Parameters, optional
+    params : airmat.inflation.model.Parameters, optional
     workers : int
     cache : bool
         Read and write ``cache_dir() / "length_map"``.
@@ -121,9 +121,9 @@ def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, wo
     CalibratedLengthMap
     """
     from airmat.atomic import atomic_write_text
-    from check.length_map import CalibratedLengthMap
-    from check.validation import SpecimenLayout
-    from inflation.model import Parameters
+    from airmat.check.length_map import CalibratedLengthMap
+    from airmat.check.validation import SpecimenLayout
+    from airmat.inflation.model import Parameters
 
     params = Parameters() if params is None else params
     mm = {name: round(float(v) * 1e3, 6) for name, v in

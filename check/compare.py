@@ -7,7 +7,7 @@ the string shortens to L* = L − 2h; the simulator agrees (σ ≈ 0.999 on the
 face opposite the strings, ≈ 0.89 on the string face). So Ŝ is the
 **length-keeping face**: the face opposite the strings. A design with
 strings on both faces (a saddle) is compared on the face opposite the larger
-share of bending, |κ| times the string's span (:func:`design.face_metric.length_keeping_face`;
+share of bending, |κ| times the string's span (:func:`airmat.design.face_metric.length_keeping_face`;
 a string face shortens by about |κ| d per unit length, so this face is the
 one whose lengths Ŝ misses least); the other surfaces (top, bottom, mid) are
 reported for reference.
@@ -28,7 +28,8 @@ from scipy.spatial.transform import Rotation
 
 from airmat.errors import InputError
 from airmat.geometry.polyline import midpoints, points_at_fractions
-from inflation.mesh import locate
+from airmat.inflation.mesh import locate
+from airmat.summary import Summarized, mm
 
 __all__ = ["SURFACES", "Deviation", "surface_at", "deviation", "realized_curvature",
            "menger_signed"]
@@ -37,8 +38,8 @@ __all__ = ["SURFACES", "Deviation", "surface_at", "deviation", "realized_curvatu
 SURFACES = ("top", "bottom", "mid")
 
 
-@dataclass(frozen=True)
-class Deviation:
+@dataclass(frozen=True, repr=False)
+class Deviation(Summarized):
     """Distance of a face of the aligned simulated mattress from Ŝ.
 
     Attributes
@@ -68,6 +69,11 @@ class Deviation:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     translation: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
+
+    def _summary(self):
+        return "Deviation", [("face", self.surface), ("RMS", mm(self.rms)), ("max", mm(self.max)),
+                             ("% of the diagonal", f"{self.rms_pct_diag:.2f}")]
+
     def apply(self, xyz) -> np.ndarray:
         """Points of the simulation frame, shape (k, 3) (m), moved into Ŝ's frame."""
         return np.asarray(xyz, float) @ self.rotation.T + self.translation
@@ -84,7 +90,7 @@ def surface_at(inflation, uv, which: str = "mid"):
 
     Parameters
     ----------
-    inflation : inflation.simulate.Inflation
+    inflation : airmat.inflation.simulate.Inflation
     uv : ndarray of shape (k, 2)
         Points on Ω (m).
     which : {"mid", "top", "bottom"}

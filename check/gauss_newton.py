@@ -1,7 +1,7 @@
 """The refinement's Gauss–Newton loop: bounded Levenberg–Marquardt over the strings' simulated lengths.
 
 Each iteration linearizes the face fit with the adjoint Jacobian, reduces the
-least squares to k × k (:mod:`check.damped_step`) and tries damped, bounded
+least squares to k × k (:mod:`airmat.check.damped_step`) and tries damped, bounded
 steps, each judged by a trial equilibrium started from the first-order
 predictor, until one realizes more than ``ACCEPT`` (a quarter) of the decrease
 its model predicted. The damping shrinks (÷ ``LAM_DOWN``) after a step its model
@@ -20,8 +20,8 @@ import logging
 import numpy as np
 
 from airmat.progress import progress
-from check.damped_step import damped_step, reduce_least_squares
-from check.trial_equilibrium import TrialProblem
+from airmat.check.damped_step import damped_step, reduce_least_squares
+from airmat.check.trial_equilibrium import TrialProblem
 
 __all__ = ["gauss_newton", "LAM_DOWN", "ACCEPT", "HOLD_AFTER_RETRY"]
 
@@ -52,7 +52,7 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
 
     Parameters
     ----------
-    prob : check.trial_equilibrium.TrialProblem
+    prob : airmat.check.trial_equilibrium.TrialProblem
         Its face fit is the objective; its trial equilibria evaluate a step.
     l0, l_reg : ndarray of shape (k,)
         Start lengths and the lengths the Tikhonov term pulls toward (m).
@@ -64,7 +64,7 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
         Weight of the Tikhonov term (``alpha · mean((l - l_reg)²)``).
     max_iter : int
     ftol, xtol, rms_tol : float
-        Stopping rule (see :func:`check.refinement.refine`); ``xtol`` in m.
+        Stopping rule (see :func:`airmat.check.refinement.refine`); ``xtol`` in m.
     lam0 : float
         Start damping.
 

@@ -1,25 +1,25 @@
 """The inflation check of a design: inflate at the median string lengths and at both tolerance ends.
 
 :func:`check` reads nothing and writes nothing: give it the
-:class:`~design.pipeline.DesignResult` of :func:`design.pipeline.design` (or
-of :func:`design.design_io.read_design`); it builds the double-layer mesh,
+:class:`~airmat.design.pipeline.DesignResult` of :func:`airmat.design.pipeline.design` (or
+of :func:`airmat.design.design_io.read_design`); it builds the double-layer mesh,
 inflates it three times (strings at their median, lo95 and hi95 lengths,
 each simulated at l + 2Δ with Δ the calibration's posterior median, or through
-the calibrated length map with ``calibrated_map=True``: :mod:`check.length_map`) and
+the calibrated length map with ``calibrated_map=True``: :mod:`airmat.check.length_map`) and
 compares each result with Ŝ on the named face (:func:`named_face`: the face
 whose metric Ŝ was relaxed in, else the face opposite the larger share of
 bending |κ| × span, the face that keeps Ω's lengths as Ŝ does), with the
 other faces for reference. SI units.
 
 With ``samples=K`` it also inflates K Monte-Carlo samples of the string lengths
-(:func:`check.monte_carlo.draw`: the posterior of (Δ, d, σ) and each string's own
+(:func:`airmat.check.monte_carlo.draw`: the posterior of (Δ, d, σ) and each string's own
 scatter), in the same batch as the three runs, and summarizes their deviations on
-the same face (:func:`check.monte_carlo.summarize`).
+the same face (:func:`airmat.check.monte_carlo.summarize`).
 
-A refined design (:mod:`check.refinement`) is inflated the way it was refined:
+A refined design (:mod:`airmat.check.refinement`) is inflated the way it was refined:
 its open-loop strings (``design.open_loop``) from the flat mattress, and that
 equilibrium carried on to each run's strings
-(:func:`~inflation.simulate.inflate_from`; ``DesignCheck.open_loop``). The
+(:func:`~airmat.inflation.simulate.inflate_from`; ``DesignCheck.open_loop``). The
 refinement's trial equilibria all lie on that path, each started from the last
 one; from the flat mattress the same lengths can settle in another
 arrangement of the wrinkles (vault1: 7.1 instead of 6.4 mm RMS, README,
@@ -27,9 +27,9 @@ Refinement).
 
 The three runs are independent, so ``workers > 1`` runs them in that many
 Dask worker processes, or ``scheduler`` on an existing cluster
-(:func:`~inflation.simulate.inflate_many`, :mod:`inflation.executor`).
+(:func:`~airmat.inflation.simulate.inflate_many`, :mod:`airmat.inflation.executor`).
 An inflation already made the check's way (a :class:`KnownRun`, e.g. the
-verification of :func:`check.refinement.refine`) stands in for the median run
+verification of :func:`airmat.check.refinement.refine`) stands in for the median run
 (or the open-loop equilibrium) when it is that run: same strings, start, mesh,
 parameters and tolerance.
 """
@@ -41,16 +41,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from check.compare import SURFACES, Deviation, deviation, realized_curvature
-from design.face_metric import strings_named_face
-from check.length_map import length_map
-from check.monte_carlo import draw, summarize
-from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters
-from inflation.simulate import INFLATE_TOL, Inflation, inflate, inflate_many
-from inflation.strings import StringSet, check_resolution
+from airmat.errors import InputError
+from airmat.check.compare import SURFACES, Deviation, deviation, realized_curvature
+from airmat.design.face_metric import strings_named_face
+from airmat.check.length_map import length_map
+from airmat.check.monte_carlo import draw, summarize
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.model import Parameters
+from airmat.inflation.simulate import INFLATE_TOL, Inflation, inflate, inflate_many
+from airmat.inflation.strings import StringSet, check_resolution
+from airmat.summary import Summarized, mm
 
-__all__ = ["CheckRun", "DesignCheck", "KnownRun", "check", "design_strings", "open_loop_strings", "named_face",
+__all__ = ["CheckRun", "DesignCheck", "KnownRun", "check", "monte_carlo", "design_strings", "open_loop_strings", "named_face",
            "LENGTH_KEYS"]
 
 log = logging.getLogger(__name__)
@@ -104,10 +106,10 @@ def design_strings(design, which: str = "median", *, lengths=None) -> StringSet:
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
     which : {"median", "lo95", "hi95"}
         Which length of each string.
-    lengths : check.length_map.LengthMap or CalibratedLengthMap, optional
+    lengths : airmat.check.length_map.LengthMap or CalibratedLengthMap, optional
         Real length -> simulated rest length; default ``length_map(design.calibration)``.
 
     Returns
@@ -126,7 +128,7 @@ def open_loop_strings(design, *, lengths=None) -> StringSet | None:
     """The open-loop strings a refined design's inflations start from, at their median lengths (SI).
 
     :func:`check` inflates them from the flat mattress and carries that equilibrium on to
-    each run's strings (:func:`~inflation.simulate.inflate_from`), the path the
+    each run's strings (:func:`~airmat.inflation.simulate.inflate_from`), the path the
     refinement's equilibria took. ``lengths`` as in :func:`design_strings`.
 
     Returns
@@ -151,16 +153,16 @@ def _string_set(strings, which: str, lengths) -> StringSet:
                      tuple(s.dash.id for s in strings))
 
 
-@dataclass(frozen=True)
-class CheckRun:
+@dataclass(frozen=True, repr=False)
+class CheckRun(Summarized):
     """One inflation of the design and how far it lands from Ŝ.
 
     Attributes
     ----------
     which : str
         ``"median"``, ``"lo95"`` or ``"hi95"``: the string lengths used.
-    inflation : inflation.simulate.Inflation
-    deviation : check.compare.Deviation
+    inflation : airmat.inflation.simulate.Inflation
+    deviation : airmat.check.compare.Deviation
         On the named face (``DesignCheck.surface``).
     kappa_realized : ndarray of shape (k,)
         Signed curvature realized along each string's dash on the named face (1/m).
@@ -179,13 +181,19 @@ class CheckRun:
     kappa_realized_free: np.ndarray = None
 
 
-@dataclass(frozen=True)
-class DesignCheck:
+    def _summary(self):
+        return f"CheckRun {self.which}", [("deviation", f"{mm(self.deviation.rms)} RMS, {mm(self.deviation.max)} max "
+                                                      f"({self.deviation.rms_pct_diag:.2f} % of the diagonal)"),
+                                          ("face", self.deviation.surface), ("converged", self.inflation.converged)]
+
+
+@dataclass(frozen=True, repr=False)
+class DesignCheck(Summarized):
     """The median run and the tolerance envelope (``runs['median' | 'lo95' | 'hi95']``).
 
     Attributes
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
     resolution : float
         Edge length of the double-layer mesh (m).
     runs : dict of str -> CheckRun
@@ -194,9 +202,9 @@ class DesignCheck:
         are measured (``"top"``, ``"bottom"`` or ``"mid"``).
     lengths : LengthMap or CalibratedLengthMap
         The real -> simulated string length map the runs used.
-    monte_carlo : check.monte_carlo.MonteCarloResult or None
+    monte_carlo : airmat.check.monte_carlo.MonteCarloResult or None
         The Monte-Carlo samples' deviations on the same face, when asked for.
-    open_loop : inflation.simulate.Inflation or None
+    open_loop : airmat.inflation.simulate.Inflation or None
         A refined design's open-loop equilibrium (from the flat mattress), which every run was
         carried on from; None: every run was inflated from the flat mattress.
     """
@@ -209,6 +217,15 @@ class DesignCheck:
     monte_carlo: object = None
     open_loop: Inflation | None = None
 
+
+    def _summary(self):
+        rows = [(k, f"{mm(r.deviation.rms)} RMS, {mm(r.deviation.max)} max "
+                    f"({r.deviation.rms_pct_diag:.2f} % of the diagonal)") for k, r in self.runs.items()]
+        rows += [("face", self.surface), ("resolution", mm(self.resolution, 0)), ("converged", self.converged)]
+        if self.monte_carlo is not None:
+            rows.append(("Monte-Carlo samples", self.monte_carlo.rms.shape[0]))
+        return "DesignCheck", rows
+
     @property
     def converged(self) -> bool:
         """True when every run converged."""
@@ -218,16 +235,16 @@ class DesignCheck:
 def named_face(design, strings: StringSet) -> str:
     """The face Ŝ stands for: the one whose metric Ŝ was relaxed in, else the face opposite the strings.
 
-    A design whose Ŝ took a face's metric (``report.metric["face"]``, design.face_metric)
+    A design whose Ŝ took a face's metric (``report.metric["face"]``, airmat.design.face_metric)
     names that face, so the design and the check speak of one surface; otherwise the
-    face opposite the larger share of bending (:func:`design.face_metric.length_keeping_face`:
+    face opposite the larger share of bending (:func:`airmat.design.face_metric.length_keeping_face`:
     each string's |κ| times its span, the string face shortening by about |κ| d per unit
     length).
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
-    strings : inflation.strings.StringSet
+    design : airmat.design.pipeline.DesignResult
+    strings : airmat.inflation.strings.StringSet
         The design's strings (:func:`design_strings`).
 
     Returns
@@ -247,7 +264,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
         In memory or read from its folder.
     resolution : float
         Edge length of the double-layer mesh (m); must resolve the strings
@@ -261,17 +278,17 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     workers : int
         Local worker processes for the runs (1: one after the other, in this process).
     scheduler : str, optional
-        Address of an existing Dask scheduler for the runs (:mod:`inflation.executor`).
+        Address of an existing Dask scheduler for the runs (:mod:`airmat.inflation.executor`).
     surface : {"auto", "top", "bottom", "mid"}
         The face compared with Ŝ; ``"auto"``: the named face (:func:`named_face`).
     calibrated_map : bool
         Simulate each real length at the rest length of the calibrated length map
-        (:func:`~check.length_map.length_map` with ``calibrated=True``, built at this
+        (:func:`~airmat.check.length_map.length_map` with ``calibrated=True``, built at this
         resolution and the mattress's thickness, cached on disk) instead of l + 2Δ.
     lengths : LengthMap or CalibratedLengthMap, optional
         The map to use (overrides ``calibrated_map``).
     samples : int
-        Monte-Carlo samples K of the strings' lengths (:func:`check.monte_carlo.draw`), inflated
+        Monte-Carlo samples K of the strings' lengths (:func:`airmat.check.monte_carlo.draw`), inflated
         with the median / lo95 / hi95 runs in one batch; 0: none.
     seed : int
         Seed of the Monte-Carlo samples.
@@ -354,3 +371,37 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                  st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
     return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths,
                        monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh, levels=()))
+
+
+def monte_carlo(design, samples: int = 64, *, seed: int = 0, tolerance: float | None = None,
+                resolution: float = 0.020, **options):
+    """The tolerance of a design as a distribution: ``samples`` inflations at sampled string lengths.
+
+    Each sample draws Δ, d from the design's calibration posterior and a scatter per
+    string (:func:`airmat.check.monte_carlo.draw`), inflates the mattress at those
+    lengths and measures the named face against Ŝ.
+
+    Parameters
+    ----------
+    design : airmat.design.pipeline.DesignResult
+    samples : int
+        Number of Monte-Carlo samples K (at least 1).
+    seed : int
+        Seed of the sampled lengths.
+    tolerance : float, optional
+        T (m): the result gives P(RMS <= T).
+    resolution : float
+        Edge length of the double-layer mesh (m).
+    **options
+        Passed to :func:`check` (``workers``, ``scheduler``, ``known``, ``params``, ...).
+
+    Returns
+    -------
+    airmat.check.monte_carlo.MonteCarloResult
+        RMS deviation per sample (m), per-vertex quantiles, convergence per sample.
+    """
+    if not (isinstance(samples, (int, np.integer)) and samples >= 1):
+        raise InputError(f"monte_carlo needs at least one sample, got {samples!r}")
+    options.setdefault("envelope", False)
+    return check(design, resolution=resolution, samples=int(samples), seed=seed, tolerance=tolerance,
+                 **options).monte_carlo

@@ -6,7 +6,7 @@ is given l*: :class:`LengthMap`. The simulator does not bend exactly as
 Equation 3 says (``airmat validate``), so :class:`CalibratedLengthMap` instead
 gives each real length the simulated rest length at which the simulated
 specimen bends to the calibrated κ₁ (Equation 3 with the posterior median's
-Δ and d), from a table of simulated specimens (:mod:`check.calibrated_map`).
+Δ and d), from a table of simulated specimens (:mod:`airmat.check.calibrated_map`).
 Every conversion between a real length and a simulated one goes through one
 of these maps: the check, the envelope (each lo95 / hi95 length through the
 same map) and any later refinement. SI units (m).
@@ -155,16 +155,16 @@ def length_map(calibration, *, calibrated: bool = False, resolution: float | Non
 
     Parameters
     ----------
-    calibration : design.calibration_source.CalibrationSource
+    calibration : airmat.design.calibration_source.CalibrationSource
     calibrated : bool
         False: :class:`LengthMap` with Δ the posterior median (Equation 3's l + 2Δ).
         True: :class:`CalibratedLengthMap` built from simulated specimens at the
-        calibration's L (:func:`check.calibrated_map.calibrated_length_map`; cached on disk).
+        calibration's L (:func:`airmat.check.calibrated_map.calibrated_length_map`; cached on disk).
     resolution : float
         Mesh edge length (m) of the specimens; required when ``calibrated``.
     thickness : float, optional
         Mattress thickness (m) of the specimens; default the posterior median of d.
-    params : inflation.model.Parameters, optional
+    params : airmat.inflation.model.Parameters, optional
     workers : int
         Processes for the specimen inflations.
     cache : bool
@@ -177,7 +177,7 @@ def length_map(calibration, *, calibrated: bool = False, resolution: float | Non
     if not calibrated:
         return LengthMap(delta=calibration.delta_median)
     from airmat.errors import InputError
-    from check.calibrated_map import calibrated_length_map
+    from airmat.check.calibrated_map import calibrated_length_map
 
     if resolution is None or not resolution > 0:
         raise InputError(f"the calibrated length map needs a resolution > 0 m, got {resolution!r}")

@@ -17,7 +17,7 @@ independently of its neighbours (the scatter σ of the calibration, 1/m).
    (Equation 3 inverted; written as a change, a sample equal to the median is
    the median length exactly).
 4. Its simulated rest length through the one real-to-simulated map,
-   :func:`check.length_map.length_map` ``(calibration).to_simulated``.
+   :func:`airmat.check.length_map.length_map` ``(calibration).to_simulated``.
 
 :func:`summarize` turns the K runs' deviations into the statistics of
 ``inflate.json``'s ``monte_carlo`` block. SI units.
@@ -29,8 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.model import kappa1, kappa_max, string_length
-from check.length_map import length_map
+from airmat.calib.model import kappa1, kappa_max, string_length
+from airmat.check.length_map import length_map
+from airmat.summary import Summarized, mm
 
 __all__ = ["MonteCarloDraws", "MonteCarloResult", "draw", "summarize", "quantile_se"]
 
@@ -80,7 +81,7 @@ def draw(design, n: int, seed: int = 0, *, lengths=None) -> MonteCarloDraws:
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
     n : int
         Samples, >= 1.
     seed : int
@@ -127,8 +128,8 @@ def quantile_se(x, q: float, *, n_boot: int = 1000, seed: int = 0) -> float:
     return 0.0 if np.ptp(boot) == 0 else float(np.std(boot, ddof=1))   # exact 0 without spread
 
 
-@dataclass(frozen=True)
-class MonteCarloResult:
+@dataclass(frozen=True, repr=False)
+class MonteCarloResult(Summarized):
     """The K runs' deviations and their statistics.
 
     Attributes
@@ -151,6 +152,12 @@ class MonteCarloResult:
     converged: np.ndarray
     tolerance: float | None = None
     seconds: float = 0.0
+
+
+    def _summary(self):
+        q = np.percentile(self.rms, [50.0, 95.0])
+        return "MonteCarloResult", [("samples", self.rms.shape[0]), ("RMS median", mm(q[0])), ("RMS 95 %", mm(q[1])),
+                                    ("converged", f"{int(np.sum(self.converged))}/{self.converged.size}")]
 
     def stats(self) -> dict:
         """Median and 95th percentile of the RMS with bootstrap standard errors, P(RMS <= T) (m)."""
@@ -191,7 +198,7 @@ def summarize(draws: MonteCarloDraws, deviations, *, tolerance: float | None = N
     Parameters
     ----------
     draws : MonteCarloDraws
-    deviations : sequence of check.compare.Deviation
+    deviations : sequence of airmat.check.compare.Deviation
         One per sample, on the check's named face.
     tolerance : float, optional
         T (m) of P(RMS <= T).

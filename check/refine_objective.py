@@ -2,7 +2,7 @@
 
 The named face at Ŝ's Ω points is a fixed linear map of the vertex
 positions, ``F = P x`` (barycentric interpolation on the mattress grid, as
-:func:`check.compare.surface_at` does), so its Jacobian is ``P`` itself.
+:func:`airmat.check.compare.surface_at` does), so its Jacobian is ``P`` itself.
 Rigid motions are removed as the check removes them: Ŝ is aligned to the
 current face by Kabsch and held fixed while the lengths move; by the
 envelope theorem the gradient of ``min over (R, t)`` is the gradient at the
@@ -18,8 +18,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial.transform import Rotation
 
-from check.compare import SURFACES
-from inflation.mesh import MattressMesh, locate
+from airmat.check.compare import SURFACES
+from airmat.inflation.mesh import MattressMesh, locate
 
 __all__ = ["face_operator", "FaceFit", "face_fit"]
 

@@ -1,6 +1,6 @@
 """A refined design: new string lengths, the strings no longer needed dropped, the coverage recomputed.
 
-Used by :func:`check.refinement.refine` once the refined lengths are known
+Used by :func:`airmat.check.refinement.refine` once the refined lengths are known
 (real lengths, m). SI units inside; the coverage summary is in mm, as design.json's.
 """
 
@@ -22,14 +22,14 @@ def refined_design(design, l_real, dropped, flagged):
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
     l_real : ndarray of shape (k,)
         New real median length of each string (m).
     dropped, flagged : ndarray of shape (k,) of bool
 
     Returns
     -------
-    design.pipeline.DesignResult
+    airmat.design.pipeline.DesignResult
     """
     new = []
     for s, l, drop, flag in zip(design.pattern.strings, l_real, dropped, flagged):
@@ -55,7 +55,7 @@ def refined_design(design, l_real, dropped, flagged):
 
 
 def _coverage_after(design, strings):
-    """The pattern's coverage (mm, design.coverage) with only ``strings`` left, and notes.
+    """The pattern's coverage (mm, airmat.design.coverage) with only ``strings`` left, and notes.
 
     It needs the curvature field and the stripes, which a design read from its folder
     does not keep: then the coverage is None (not known) and a note says why.
@@ -63,8 +63,8 @@ def _coverage_after(design, strings):
     if design.mfield is None or design.stripes is None:
         return None, ("the coverage of the refined pattern is not known: the design was read from its folder, "
                       "which keeps no curvature field (design it again with --refine to get it)",)
-    from design.coverage import pattern_coverage
-    from design.tie_grid import snap_dashes
+    from airmat.design.coverage import pattern_coverage
+    from airmat.design.tie_grid import snap_dashes
 
     m, params = design.mattress, design.params
     sp = params.stripe_params(params.L)

@@ -3,8 +3,8 @@
 The open-loop lengths come from Equation 3 and the curvature under each
 dash alone; neighbouring strings interact, so :func:`refine` adjusts all the
 simulated rest lengths l* together. Objective: the mean squared distance of
-the named face (the check's face, :func:`check.inflation_check.named_face`)
-from Ŝ after rigid alignment (:mod:`check.refine_objective`) plus a mild
+the named face (the check's face, :func:`airmat.check.inflation_check.named_face`)
+from Ŝ after rigid alignment (:mod:`airmat.check.refine_objective`) plus a mild
 Tikhonov term ``alpha · mean((l* - l*_open)²)``: strings that barely move the
 named face (slack ones, or ones whose effect other strings can replace) stay
 at their open-loop length instead of drifting, and the Gauss–Newton matrix
@@ -16,22 +16,22 @@ saddle 0.87 % of the diagonal (as at 3e-4 and 1e-4; 0.89 % at 3e-3 and 1e-2),
 vault1 0.62 % (0.60 % at 3e-4, 0.70–0.72 % at the others).
 
 Method: bounded Gauss–Newton with a Levenberg–Marquardt trust region
-(:mod:`check.gauss_newton`; the trial solves in :mod:`check.trial_equilibrium`). The
+(:mod:`airmat.check.gauss_newton`; the trial solves in :mod:`airmat.check.trial_equilibrium`). The
 Jacobian of the face is ``P dx/dl*`` with ``dx/dl* = -H⁻¹ ∂g/∂l*``
-(:mod:`check.adjoint`: one factorization of the Newton Hessian at each
+(:mod:`airmat.check.adjoint`: one factorization of the Newton Hessian at each
 accepted equilibrium, one back-substitution per string); each trial step's
 equilibrium starts from the last one moved by the first-order predictor
 (a few Newton steps, never from the flat mattress; a trial that fails
 leaves the Newton shift where the last equilibrium had it). The damped
 subproblems of an iteration are solved on the k × k Cholesky factor of the
-stacked Jacobian's Gram matrix (:mod:`check.damped_step`: the same steps as
+stacked Jacobian's Gram matrix (:mod:`airmat.check.damped_step`: the same steps as
 on the tall matrix, in a fraction of the time on the large mattress), and a
 trial's model rebuilds only the strings' term
-(:func:`inflation.model.with_strings`). Bounds: from the
+(:func:`airmat.inflation.model.with_strings`). Bounds: from the
 shortest a tie allows (real l = 0, through the length map) to the string's
 flat span (no bend). A step is taken only when it realizes more than a
 quarter of the decrease its model predicted (ρ > 0.25,
-:data:`check.gauss_newton.ACCEPT`); the damping shrinks only after an
+:data:`airmat.check.gauss_newton.ACCEPT`); the damping shrinks only after an
 iteration whose first trial was taken. Stopping rule: over an accepted step, a
 decrease of the RMS below ``rms_tol`` or a relative decrease of the objective
 below ``ftol``; or a step shorter than ``xtol`` × the mean span.
@@ -50,7 +50,7 @@ defect correction) up to n times where the coarse iterations stop early: the
 fine mesh is solved at their lengths, from the prolonged coarse equilibrium,
 the coarse face is re-corrected there, and the iterations go on.
 
-Ŝ re-parametrized (:mod:`check.reparametrize`): the deviation compares
+Ŝ re-parametrized (:mod:`airmat.check.reparametrize`): the deviation compares
 points through Ω, and Ŝ's points sit where the designer's model of the
 named face's metric put them, which the mattress does not follow exactly, so
 part of the deviation is a slide along Ŝ (the refined saddle: 13.8 mm RMS
@@ -66,9 +66,9 @@ against the re-parametrized one). Measured at 20 mm (README,
 ``bench/bench_refine.py --reparametrize 0 1``).
 
 The refined lengths are checked by the check's own inflation of a refined
-design (:func:`check.inflation_check.check`): the open-loop equilibrium (the
+design (:func:`airmat.check.inflation_check.check`): the open-loop equilibrium (the
 first inflation, from the flat mattress) carried on to the refined lengths at
-the target resolution (:func:`~inflation.simulate.inflate_from`), the path
+the target resolution (:func:`~airmat.inflation.simulate.inflate_from`), the path
 every trial equilibrium took. It gives ``deviation_after``; if that is worse
 than the open-loop deviation the open-loop lengths are kept
 (``converged=False``). A design refined again starts from its first open loop
@@ -86,39 +86,40 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import InputError
-from check.compare import Deviation, deviation
-from check.gauss_newton import gauss_newton
-from check.inflation_check import KnownRun, design_strings, named_face, open_loop_strings
-from check.length_map import length_map
-from check.refine_objective import face_fit
-from check.refined_design import REFINE_FLAG, refined_design
-from check.reparametrize import Reparametrization
-from check.reparametrize import reparametrize as reparametrize_approx
-from check.trial_equilibrium import SOLVE_NEWTON, coarse_start, correct, make_problem
-from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters
-from inflation.prolong import prolong
-from inflation.simulate import INFLATE_TOL, inflate, inflate_from
-from inflation.strings import check_resolution
+from airmat.check.compare import Deviation, deviation
+from airmat.check.gauss_newton import gauss_newton
+from airmat.check.inflation_check import KnownRun, design_strings, named_face, open_loop_strings
+from airmat.check.length_map import length_map
+from airmat.check.refine_objective import face_fit
+from airmat.check.refined_design import REFINE_FLAG, refined_design
+from airmat.check.reparametrize import Reparametrization
+from airmat.check.reparametrize import reparametrize as reparametrize_approx
+from airmat.check.trial_equilibrium import SOLVE_NEWTON, coarse_start, correct, make_problem
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.model import Parameters
+from airmat.inflation.prolong import prolong
+from airmat.inflation.simulate import INFLATE_TOL, inflate, inflate_from
+from airmat.inflation.strings import check_resolution
+from airmat.summary import Summarized, mm
 
 __all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
 log = logging.getLogger(__name__)
 
-#: rounds of Ŝ re-parametrized in the refined face's realized metric (check.reparametrize)
+#: rounds of Ŝ re-parametrized in the refined face's realized metric (airmat.check.reparametrize)
 REPARAM_ROUNDS = 1
 #: iterations of a round's relaxation: the slide along Ŝ is done in ~50 (on the saddle 8.33 of the
 #: 8.54 mm a converged relaxation moves); what follows drifts off the surface (A1 against A2)
 REPARAM_RELAX_ITER = 50
 
 
-@dataclass(frozen=True)
-class Refinement:
+@dataclass(frozen=True, repr=False)
+class Refinement(Summarized):
     """The result of :func:`refine`.
 
     Attributes
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
         The refined design: new ``l_median`` (lo95 / hi95 shifted by the same amount),
         dropped strings removed, flagged ones flagged, and its ``refine`` block.
     converged, iterations, seconds, message
@@ -126,7 +127,7 @@ class Refinement:
     objective_before, objective_after : float
         Mean squared distance of the named face (m²), before and after (regularization included);
         after: from the re-parametrized Ŝ when there is one (the coarse mesh's, when the iterations ran there).
-    deviation_before, deviation_after : check.compare.Deviation
+    deviation_before, deviation_after : airmat.check.compare.Deviation
         Of fresh inflations at the open-loop and the refined lengths (the check's numbers).
     l_real : ndarray of shape (k,)
         Refined real median length of every original string (m).
@@ -149,16 +150,16 @@ class Refinement:
         The RMS distance (m) of the fine face from Ŝ at each defect correction's coarse optimum.
     alpha : float
         Weight of the pull toward the open-loop lengths (dimensionless).
-    verification : check.inflation_check.KnownRun or None
-        The inflation that gave ``deviation_after`` (the check's own): :func:`check.inflation_check.check`
+    verification : airmat.check.inflation_check.KnownRun or None
+        The inflation that gave ``deviation_after`` (the check's own): :func:`airmat.check.inflation_check.check`
         of ``design`` at this resolution takes it as its median run (``known=``) instead of inflating again.
-    open_loop_run : check.inflation_check.KnownRun or None
+    open_loop_run : airmat.check.inflation_check.KnownRun or None
         The open-loop inflation from the flat mattress that the verification was carried on from
         (the one ``inflation_seconds`` timed): the check's start for the refined design.
-    reparametrization : check.reparametrize.Reparametrization or None
+    reparametrization : airmat.check.reparametrize.Reparametrization or None
         The last round's Ŝ in the realized metric (``design.approx.xyz`` is its ``xyz``, and
         ``deviation_after`` is measured against it); None when Ŝ stayed as designed.
-    deviation_before_reparametrized : check.compare.Deviation or None
+    deviation_before_reparametrized : airmat.check.compare.Deviation or None
         The open-loop inflation against that Ŝ (``deviation_before`` is against the designed one).
     reparametrize_rounds : int
         How many rounds were made.
@@ -193,9 +194,17 @@ class Refinement:
     reparametrize_rounds: int = 0
     lengths_before: str = "open-loop"
 
+
+    def _summary(self):
+        return "Refinement", [("deviation", f"{mm(self.deviation_before.rms)} -> {mm(self.deviation_after.rms)} RMS "
+                                            f"({self.deviation_after.rms_pct_diag:.2f} % of the diagonal)"),
+                              ("converged", self.converged), ("iterations", self.iterations),
+                              ("seconds", f"{self.seconds:.1f}"), ("dropped", len(self.dropped)),
+                              ("flagged", len(self.flagged))]
+
     @property
     def known_runs(self) -> tuple:
-        """The verification and the open-loop inflation it started from: what :func:`check.inflation_check.check`
+        """The verification and the open-loop inflation it started from: what :func:`airmat.check.inflation_check.check`
         of ``design`` at this resolution (``known=``) need not inflate again."""
         return tuple(k for k in (self.verification, self.open_loop_run) if k is not None)
 
@@ -237,7 +246,7 @@ def check_refinable(design, resolution: float, path=None) -> None:
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
     resolution : float
         The refinement's mesh edge length (m).
     path : str or PathLike, optional
@@ -246,7 +255,7 @@ def check_refinable(design, resolution: float, path=None) -> None:
     Raises
     ------
     airmat.errors.InputError
-        No strings, a resolution too coarse for them (:func:`~inflation.strings.check_resolution`),
+        No strings, a resolution too coarse for them (:func:`~airmat.inflation.strings.check_resolution`),
         or no posterior samples in the design's calibration.
     """
     if len(design.pattern.strings) == 0:
@@ -263,12 +272,12 @@ def _reparametrize_rounds(work, g, design, l_open, lo, hi, rounds, total, kw):
     ``work.approx_xyz`` takes each new Ŝ. Each round's iterations are an even share of what
     is left of ``total`` (so what an earlier stage did not use is not lost). Returns the last
     Gauss–Newton result (iterations counted over all) and the rounds'
-    :class:`~check.reparametrize.Reparametrization` list.
+    :class:`~airmat.check.reparametrize.Reparametrization` list.
     """
     reps = []
     if rounds <= 0:
         return g, reps
-    from design.closest_point import MeshProjector
+    from airmat.design.closest_point import MeshProjector
 
     a = design.approx
     onto = MeshProjector(a.xyz, a.faces)
@@ -296,7 +305,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
 
     Parameters
     ----------
-    design : design.pipeline.DesignResult
+    design : airmat.design.pipeline.DesignResult
     resolution : float
         Mesh edge length (m); the check of the refined design at the same resolution
         reproduces ``deviation_after``.
@@ -326,7 +335,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         The face; ``"auto"`` as the check chooses it.
     reparametrize : int
         Rounds of Ŝ re-parametrized in the metric the refined face realizes
-        (:mod:`check.reparametrize`), each followed by Gauss–Newton iterations against
+        (:mod:`airmat.check.reparametrize`), each followed by Gauss–Newton iterations against
         the new Ŝ; 0: Ŝ as designed. ``max_iter`` is split evenly between the first
         stage and the rounds (the first stage gets the remainder, a round what the stages
         before it left).
@@ -415,7 +424,7 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
         refined = dataclasses.replace(refined, approx=dataclasses.replace(refined.approx, xyz=approx_xyz))
     tv = time.perf_counter()
     refined_strings = design_strings(refined, "median")
-    # the check's path of a refined design (check.inflation_check): from the open-loop equilibrium on
+    # the check's path of a refined design (airmat.check.inflation_check): from the open-loop equilibrium on
     final = inflate_from(base, refined_strings if len(refined_strings) else None, params=params, tol=tol)
     t_verify = time.perf_counter() - tv
     dev1 = deviation(final, approx_xyz, design.approx.uv, named)

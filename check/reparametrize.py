@@ -1,8 +1,8 @@
 """Ŝ re-parametrized in the metric the inflated named face realizes: the same surface, other points.
 
 The check compares the named face with Ŝ point by point through Ω
-(:func:`check.compare.deviation`). Which point of Ω Ŝ puts where comes from
-the designer's model of the named face's metric (:mod:`design.face_metric`:
+(:func:`airmat.check.compare.deviation`). Which point of Ω Ŝ puts where comes from
+the designer's model of the named face's metric (:mod:`airmat.design.face_metric`:
 Ω's lengths, shortened by 1 / (1 + d κ) under the face's own strings). The
 simulated face realizes a somewhat different metric (the saddle's top face
 shortens along u by 0.92–0.94 where the model says 0.89–0.95,
@@ -12,12 +12,12 @@ from Ŝ point to point but 9.8 mm from Ŝ's nearest points.
 
 :func:`reparametrize` moves Ŝ's vertices along Ŝ's own surface so that its
 edges take the lengths the inflated face gives them: U_A
-(:func:`design.relax.relax_from`) with those lengths as A1 rest lengths and
+(:func:`airmat.design.relax.relax_from`) with those lengths as A1 rest lengths and
 A2 pulling onto the old Ŝ (continued across its rim by the rim faces'
-planes, :meth:`design.closest_point.MeshProjector.closest_extended`). The
+planes, :meth:`airmat.design.closest_point.MeshProjector.closest_extended`). The
 shape the user asked for is kept (the report gives how far the new Ŝ lies
 from the old one's surface); the correspondence becomes the mattress's.
-The refinement (:func:`check.refinement.refine`) alternates it with its
+The refinement (:func:`airmat.check.refinement.refine`) alternates it with its
 Gauss–Newton iterations. SI units (m).
 """
 
@@ -109,7 +109,7 @@ def reparametrize(approx_xyz, uv, faces, face_xyz, *, start=None, projector=None
     start : ndarray of shape (n, 3), optional
         Where the relaxation starts (m), e.g. the last round's Ŝ; default ``approx_xyz``.
         The surface it stays on and the distances moved are ``approx_xyz``'s.
-    projector : design.closest_point.MeshProjector, optional
+    projector : airmat.design.closest_point.MeshProjector, optional
         Onto Ŝ's surface; default one built on ``approx_xyz``.
     max_iter : int
         Of the relaxation.
@@ -118,8 +118,8 @@ def reparametrize(approx_xyz, uv, faces, face_xyz, *, start=None, projector=None
     -------
     Reparametrization
     """
-    from design.closest_point import MeshProjector
-    from design.relax import relax_from
+    from airmat.design.closest_point import MeshProjector
+    from airmat.design.relax import relax_from
 
     x0 = np.asarray(approx_xyz, float)
     faces = np.asarray(faces)

@@ -1,17 +1,17 @@
 """Files of the inflation check: inflate.json, inflated.ply, inflated.3dm, deviation.png (mm, 1/m).
 
-With Monte-Carlo samples (:mod:`check.monte_carlo`): inflate.json's ``monte_carlo``
+With Monte-Carlo samples (:mod:`airmat.check.monte_carlo`): inflate.json's ``monte_carlo``
 block, ``inflated_bands.ply`` (Ŝ with per-vertex 50 % / 95 % deviation quantiles)
 and a third panel of deviation.png, the 95 % band.
 
-``inflated.3dm`` is the design's Rhino file (:mod:`design.export.rhino`) with the
+``inflated.3dm`` is the design's Rhino file (:mod:`airmat.design.export.rhino`) with the
 inflated shapes added: each run's mid-surface at Ŝ's vertices after the Kabsch
 alignment of the check (``CheckRun.deviation.aligned``), i.e. in Ŝ's frame, on
 layers ``inflated::median`` (visible), ``inflated::lo95`` and ``inflated::hi95`` (hidden);
 with a Monte-Carlo, Ŝ coloured by the 95 % quantile on the hidden layer ``monte_carlo::p95``.
 
 ``inflate.json``'s ``deviation {rms_mm, max_mm, rms_pct_diag}`` is measured on the named
-face (``deviation.surface``, see :mod:`check.compare`), with every face under
+face (``deviation.surface``, see :mod:`airmat.check.compare`), with every face under
 ``deviation.surfaces`` for reference. ``inflated.ply`` is the whole inflated mattress moved
 into Ŝ's frame by the named face's alignment, so it overlays ``approx_surface.ply``.
 
@@ -36,7 +36,7 @@ _MM = M_TO_MM
 
 
 def monte_carlo_dict(check) -> dict:
-    """The ``monte_carlo`` block of inflate.json (mm), from ``check.monte_carlo``."""
+    """The ``monte_carlo`` block of inflate.json (mm), from ``airmat.check.monte_carlo``."""
     mc = check.monte_carlo
     dr, st = mc.draws, mc.stats()
     idx, corr = mc.sensitive()
@@ -45,7 +45,7 @@ def monte_carlo_dict(check) -> dict:
            "chain": "per sample: (delta, d, sigma) drawn from the design's calibration posterior; per string, "
                     "kappa = kappa1(l_median; delta, d) + N(0, sigma^2) independent per string, turned into a "
                     "length by Equation 3 at the design's median (delta, d), then simulated at the length map's "
-                    "l* (check.monte_carlo)",
+                    "l* (airmat.check.monte_carlo)",
            "sigma_source": dr.sigma_source,
            "rms_mm": {"median": round(st["rms_median"] * _MM, 3), "median_se": round(st["rms_median_se"] * _MM, 3),
                       "p95": round(st["rms_p95"] * _MM, 3), "p95_se": round(st["rms_p95_se"] * _MM, 3),
@@ -97,7 +97,7 @@ def _run_dict(run) -> dict:
 
 
 def check_dict(check) -> dict:
-    """The inflate.json document of a :class:`~check.inflation_check.DesignCheck`."""
+    """The inflate.json document of a :class:`~airmat.check.inflation_check.DesignCheck`."""
     med, d = check.runs["median"], check.design
     doc = {"design": str(d.source if d.source is not None else d.name),
            "resolution_mm": round(check.resolution * M_TO_MM, 3),
@@ -143,7 +143,7 @@ def deviation_figure(check):
 
     Parameters
     ----------
-    check : check.inflation_check.DesignCheck
+    check : airmat.check.inflation_check.DesignCheck
 
     Returns
     -------
@@ -199,8 +199,8 @@ def write_check(check, folder) -> dict:
     """Write inflate.json, inflated.ply, inflated.3dm and deviation.png into ``folder``; return the JSON document."""
     import trimesh
 
-    from design.design_io import document
-    from design.export.rhino import write_3dm
+    from airmat.design.design_io import document
+    from airmat.design.export.rhino import write_3dm
 
     folder = Path(folder)
     doc = check_dict(check)

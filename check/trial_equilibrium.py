@@ -5,7 +5,7 @@ system (its symbolic factorization reused by every trial) and the operator
 that reads the named face at Ŝ's points. It solves trial equilibria at other
 string rest lengths from a given start (a failed trial leaves the Newton shift
 where it was) and gives the adjoint Jacobian of the face with respect to the
-rest lengths (:mod:`check.adjoint`). :func:`coarse_start` and :func:`correct`
+rest lengths (:mod:`airmat.check.adjoint`). :func:`coarse_start` and :func:`correct`
 are the two-level scheme's coarse open-loop equilibrium and its defect
 correction. SI units (m).
 """
@@ -19,14 +19,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import AirmatError
-from check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
-from check.refine_objective import face_fit, face_operator
-from inflation.assembly import build_assembler
-from inflation.energy import block_pattern
-from inflation.model import Parameters, build_model, with_strings
-from inflation.prolong import prolong
-from inflation.simulate import inflate
-from inflation.solver import NewtonSystem, rigid_pins, solve
+from airmat.check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
+from airmat.check.refine_objective import face_fit, face_operator
+from airmat.inflation.assembly import build_assembler
+from airmat.inflation.energy import block_pattern
+from airmat.inflation.model import Parameters, build_model, with_strings
+from airmat.inflation.prolong import prolong
+from airmat.inflation.simulate import inflate
+from airmat.inflation.solver import NewtonSystem, rigid_pins, solve
 
 __all__ = ["TrialProblem", "make_problem", "coarse_start", "correct", "TRIAL_NEWTON", "SOLVE_NEWTON"]
 
@@ -45,7 +45,7 @@ TRIAL_NEWTON = 20
 SOLVE_NEWTON = 50
 
 #: what the Newton method of the refinement's equilibria does with a step that does not lower U_B, and by
-#: how much it raises its shift (:func:`inflation.solver.solve`: ``refused_step``, ``mu_up``); the
+#: how much it raises its shift (:func:`airmat.inflation.solver.solve`: ``refused_step``, ``mu_up``); the
 #: check's inflations (and so the verification) always keep the solver's own rule. Measured (README,
 #: ``bench/bench_refine.py --draws 8 --trial-rule shift:4 backtrack:2``): halving with the shift x2
 #: took vault1 from 4.5-5.9x one inflation to 3.8-5.5x but from 0.70 % of the diagonal (median of 8

@@ -54,12 +54,12 @@ import numpy as np
 
 from airmat.constants import PAPER_D, PAPER_L
 from airmat.figures import new_figure
-from calib.model import bend_angle, kappa1, polygon_side
-from check.compare import menger_signed, surface_at
-from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters
-from inflation.simulate import inflate_many
-from inflation.strings import StringSet
+from airmat.calib.model import bend_angle, kappa1, polygon_side
+from airmat.check.compare import menger_signed, surface_at
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.model import Parameters
+from airmat.inflation.simulate import inflate_many
+from airmat.inflation.strings import StringSet
 
 __all__ = ["SpecimenLayout", "specimen_strings", "specimen_kappa", "ValidationPoint", "validate_equation3",
            "validation_figure", "polygon_curvature", "fold_geometry", "section_curvature", "turn_angle",
@@ -141,7 +141,7 @@ def fold_geometry(inf, layout: SpecimenLayout):
 
     Equation 3's κ₁ = 2 cos(θ/2) / L* is the circle through the folds of a
     polygon of side L* = L − (π − θ) d and interior angle θ
-    (:func:`calib.model.polygon_side`, :func:`calib.model.bend_angle`); these
+    (:func:`airmat.calib.model.polygon_side`, :func:`airmat.calib.model.bend_angle`); these
     are the simulated ones, to tell which of the two a difference comes from.
 
     Returns
@@ -337,10 +337,10 @@ def validate_equation3(ratios=(0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9), *, layout: Sp
     seed : int
         Unused (no random step: the section circles are fitted by least squares); kept for the CLI.
     workers : int
-        Processes for the inflations (see :func:`~inflation.simulate.inflate_many`).
+        Processes for the inflations (see :func:`~airmat.inflation.simulate.inflate_many`).
     scheduler : str, optional
         Address of an existing Dask scheduler for the inflations.
-    length_map : check.length_map.LengthMap or CalibratedLengthMap, optional
+    length_map : airmat.check.length_map.LengthMap or CalibratedLengthMap, optional
         Real length -> simulated rest length; default none (the rest length is l, Δ = 0).
     delta, d : float
         Equation 3's Δ and d (m) of ``kappa_eq3``: the calibration median with a

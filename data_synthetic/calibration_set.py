@@ -3,7 +3,7 @@
 For true slip Delta, thickness d, string-end distance L and a list of string
 lengths l, every specimen is bent to ``kappa_1(l) * exp(s z)`` (Equation 3
 times a lognormal specimen-to-specimen scatter of log-sd ``s``, ``z ~ N(0, 1)``),
-scanned with :func:`data_synthetic.specimen_scan.specimen_scan` and written
+scanned with :func:`airmat.synthetic.specimen_scan.specimen_scan` and written
 as a PLY file in millimetres, cycling through the PLY encodings a real scanner
 zoo produces (ascii, binary little/big endian, float or double, extra
 properties). Next to the scans: ``manifest.csv`` (the input of
@@ -23,8 +23,8 @@ from airmat.atomic import staged_dir
 from airmat.constants import PAPER_D, PAPER_DELTA, PAPER_L
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
-from calib.manifest import write_manifest_text
-from calib.model import flat_length, kappa1
+from airmat.calib.manifest import write_manifest_text
+from airmat.calib.model import flat_length, kappa1
 
 __all__ = ["CalibrationSet", "calibration_set", "DEFAULT_L_OVER_L", "PLY_FORMATS"]
 
@@ -120,15 +120,15 @@ def calibration_set(out, *, delta: float = PAPER_DELTA, d: float = PAPER_D, L: f
     seed : int
         Seeds the scatter, the scans and their extra properties.
     **scan_options
-        Passed to :func:`~data_synthetic.specimen_scan.specimen_scan` (noise,
+        Passed to :func:`~airmat.synthetic.specimen_scan.specimen_scan` (noise,
         outlier_fraction, ...).
 
     Returns
     -------
     CalibrationSet
     """
-    from data_synthetic.ply_write import write_ply
-    from data_synthetic.specimen_scan import specimen_scan
+    from airmat.synthetic.ply_write import write_ply
+    from airmat.synthetic.specimen_scan import specimen_scan
 
     ratios = np.atleast_1d(np.asarray(l_over_L, dtype=float))
     _check(delta, d, L, ratios, n_points, scatter)

@@ -78,7 +78,7 @@ def _vertex_table(points, colors, extra, dtype) -> np.ndarray:
 
 
 def _header(table: np.ndarray, encoding: str) -> bytes:
-    lines = ["ply", f"format {encoding} 1.0", "comment written by airmat (data_synthetic.ply_write)",
+    lines = ["ply", f"format {encoding} 1.0", "comment written by airmat (airmat.synthetic.ply_write)",
              f"element vertex {len(table)}"]
     for name in table.dtype.names:
         lines.append(f"property {_ply_type(table.dtype[name], name)} {name}")

@@ -1,6 +1,6 @@
 """Write a synthetic scan in a scanner's format, with the library real software uses for it.
 
-Test data for :mod:`calib.scan_readers`: every file is written by a third-party
+Test data for :mod:`airmat.calib.scan_readers`: every file is written by a third-party
 writer (pye57, laspy with lazrs, open3d, trimesh) or, for the column formats,
 in the layouts Metashape/CloudCompare/Leica export, so the readers are tested
 against files they did not write themselves. Coordinates are given in

@@ -16,8 +16,8 @@ the surface bends away from it (a vault seen from above).
 
 An :class:`AnalyticSurface` is a plain mesh (``vertices``, ``faces``, ``name``):
 test and demo data that imports nothing from the designer, which accepts it as
-a target (:meth:`design.target.Target.from_mesh`). The designer's presets are
-in :mod:`design.presets`.
+a target (:meth:`airmat.design.target.Target.from_mesh`). The designer's presets are
+in :mod:`airmat.design.presets`.
 """
 
 from __future__ import annotations

@@ -128,12 +128,12 @@ def _thin(x: np.ndarray, max_samples: int | None) -> np.ndarray:
 
 
 def from_calibration(cal, *, source: str | None = None, max_samples: int | None = 2000) -> CalibrationSource:
-    """The designer's view of a :class:`calib.calibrate.Calibration`, in memory.
+    """The designer's view of a :class:`airmat.calib.calibrate.Calibration`, in memory.
 
     Parameters
     ----------
-    cal : calib.calibrate.Calibration
-        From :func:`calib.calibrate.calibrate` or :func:`calib.calibration_io.read_calibration`.
+    cal : airmat.calib.calibrate.Calibration
+        From :func:`airmat.calib.calibrate.calibrate` or :func:`airmat.calib.calibration_io.read_calibration`.
     source : str, optional
         Where the calibration's files are (its folder), for the label and the
         design's files; default the manifest it was made from.
@@ -164,7 +164,7 @@ def from_calibration(cal, *, source: str | None = None, max_samples: int | None 
 def load_calibration(folder, *, max_samples: int | None = 2000) -> CalibrationSource:
     """Read the output folder of ``airmat calibrate`` for the designer.
 
-    :func:`calib.calibration_io.read_calibration` then :func:`from_calibration`
+    :func:`airmat.calib.calibration_io.read_calibration` then :func:`from_calibration`
     with the folder as the source.
 
     Raises
@@ -172,6 +172,6 @@ def load_calibration(folder, *, max_samples: int | None = 2000) -> CalibrationSo
     airmat.errors.InputError
         With ``path=`` the offending file, naming the missing field.
     """
-    from calib.calibration_io import read_calibration
+    from airmat.calib.calibration_io import read_calibration
 
     return from_calibration(read_calibration(folder), source=str(folder), max_samples=max_samples)

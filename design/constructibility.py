@@ -4,7 +4,7 @@
 is neither stretched nor compressed). Ŝ is declared unconstructible when
 some σ leaves the tolerance band (the mattress cannot stretch, and can
 contract only a little) or some |κ| exceeds what a string can produce with
-the calibration (Equation 3 at l = 0: :func:`calib.model.kappa_max`).
+the calibration (Equation 3 at l = 0: :func:`airmat.calib.model.kappa_max`).
 Part of Ω lying beyond the target's rim (a target that does not cover the
 mattress; Ŝ continues S by its tangent plane there) is reported as a
 warning, not a reason: the mattress can make that Ŝ, it is just not all S.
@@ -19,14 +19,14 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.geometry.topology import flat_vertex_areas, mesh_edges
-from design.relax import OFF_TARGET
+from airmat.design.relax import OFF_TARGET
 
 __all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX"]
 
 
 def _paper_kappa_max() -> float:
     from airmat.constants import PAPER_D, PAPER_DELTA, PAPER_L
-    from calib.model import kappa_max
+    from airmat.calib.model import kappa_max
 
     return float(kappa_max(PAPER_L, PAPER_DELTA, PAPER_D))
 
@@ -60,7 +60,7 @@ class ConstructibilityReport:
         What the verdict does not count but a designer should know (Ω off S), with where.
     metric : dict
         The lengths σ is measured against: ``face`` (``"top"`` / ``"bottom"``: the named
-        face's metric, design.face_metric; ``"flat"``: Ω's) and ``min_ratio``, the
+        face's metric, airmat.design.face_metric; ``"flat"``: Ω's) and ``min_ratio``, the
         shortest rest length of that metric over Ω's (1 for Ω's own).
     """
 
@@ -120,8 +120,8 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
         Reachable curvature (1/m); default the paper's calibration, 15.66 1/m.
     off_target : ndarray of shape (n,), optional
         Distance (m) of each vertex of Ŝ beyond S's rim, 0 on S
-        (design.relax.RelaxResult.off_target); reported as a warning.
-    metric : design.face_metric.FaceMetric, optional
+        (airmat.design.relax.RelaxResult.off_target); reported as a warning.
+    metric : airmat.design.face_metric.FaceMetric, optional
         Measure σ against the named face's rest lengths instead of Ω's: where that face
         carries strings they shorten it, which is not a contraction the membrane must make.
 

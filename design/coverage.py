@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from airmat.geometry.polyline import points_at_fractions
-from design.field import FAMILIES
+from airmat.design.field import FAMILIES
 
 __all__ = ["FamilyCoverage", "Coverage", "pattern_coverage"]
 
@@ -143,10 +143,10 @@ def pattern_coverage(mfield, strings, dashes, uv, *, width: float, height: float
 
     Parameters
     ----------
-    mfield : design.field.MattressField
+    mfield : airmat.design.field.MattressField
         The principal-curvature field on Ω.
-    strings : sequence of design.pattern.TensionString
-    dashes : sequence of design.stripes.Dash
+    strings : sequence of airmat.design.pattern.TensionString
+    dashes : sequence of airmat.design.stripes.Dash
         All dashes, those that got no string included.
     uv : ndarray of shape (n, 2)
         Sample points of Ω (m), e.g. Ŝ's vertices' Ω coordinates.

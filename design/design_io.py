@@ -1,6 +1,6 @@
 """A design's folder, written and read back: the workshop files and the files the check reads.
 
-:func:`write_design` writes every file of a :class:`~design.pipeline.DesignResult`
+:func:`write_design` writes every file of a :class:`~airmat.design.pipeline.DesignResult`
 into a folder (``design.json``, ``approx_surface.ply`` / ``.obj``,
 ``calibration_samples.npz``, ``pattern.svg``, ``pattern.dxf``,
 ``cutting_list.csv``, ``preview.png``, ``design.3dm`` for Rhino); :func:`read_design` builds the same
@@ -28,14 +28,14 @@ from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.npz_bytes import npz_bytes
 from airmat.units import MM, mm_to_m
-from design.calibration_source import CalibrationSource
-from design.constructibility import ConstructibilityReport
-from design.export.design_json import dash_entry, design_document, read_design_json, write_design_json
-from design.mattress import Mattress
-from design.pattern import Dash, Pattern, TensionString
-from design.pipeline import DesignParams, DesignResult
-from design.surface import ApproxSurface
-from design.surface_io import read_approx_surface, write_approx_surface
+from airmat.design.calibration_source import CalibrationSource
+from airmat.design.constructibility import ConstructibilityReport
+from airmat.design.export.design_json import dash_entry, design_document, read_design_json, write_design_json
+from airmat.design.mattress import Mattress
+from airmat.design.pattern import Dash, Pattern, TensionString
+from airmat.design.pipeline import DesignParams, DesignResult
+from airmat.design.surface import ApproxSurface
+from airmat.design.surface_io import read_approx_surface, write_approx_surface
 
 __all__ = ["write_design", "read_design", "document", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
 
@@ -83,7 +83,7 @@ def document(result: DesignResult) -> dict:
                              "message": str(a.relax.message)}
     if result.refine is not None:   # lengths refined through the inflation (check.refine)
         doc["refine"] = dict(result.refine)
-        if result.open_loop is not None:     # what its inflations start from (check.inflation_check)
+        if result.open_loop is not None:     # what its inflations start from (airmat.check.inflation_check)
             doc["refine"]["open_loop_dashes"] = [dash_entry(s, polyline=False) for s in result.open_loop]
     return doc
 
@@ -96,14 +96,14 @@ def write_design(result: DesignResult, folder, *, papers: tuple = ()) -> dict:
     result : DesignResult
     folder : str or Path
     papers : tuple of {"A4", "A3"}, keyword-only
-        Also write ``pattern_<paper>.pdf``, the drawing tiled at 1:1 (:mod:`design.export.pdf`).
+        Also write ``pattern_<paper>.pdf``, the drawing tiled at 1:1 (:mod:`airmat.design.export.pdf`).
 
     Returns
     -------
     dict
         The design document (content of design.json).
     """
-    from design.export import write_3dm, write_cutting_list, write_dxf, write_pdf, write_preview, write_svg
+    from airmat.design.export import write_3dm, write_cutting_list, write_dxf, write_pdf, write_preview, write_svg
 
     folder = Path(folder)
     a, m = result.approx, result.approx.mattress

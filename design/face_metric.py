@@ -139,7 +139,7 @@ def strings_named_face(report, share, top) -> str:
 
     Parameters
     ----------
-    report : design.constructibility.ConstructibilityReport or None
+    report : airmat.design.constructibility.ConstructibilityReport or None
         Its ``metric["face"]`` names the face Ŝ was relaxed in, when it was.
     share : ndarray of shape (k,)
         Each string's |κ| times its chord on Ω.
@@ -234,11 +234,11 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
 
     Parameters
     ----------
-    relax : design.relax.RelaxResult
+    relax : airmat.design.relax.RelaxResult
         Ŝ relaxed in Ω's metric.
     uv, faces : ndarray
         Ω's triangulation (m).
-    projector : design.closest_point.MeshProjector
+    projector : airmat.design.closest_point.MeshProjector
         The target S.
     thickness : float
         Mattress thickness d (m).
@@ -250,24 +250,24 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
         Dashes stay this far inside Ω's edge (m) (:func:`face_metric`).
     rounds : int
         Relaxations in the metric, each with the metric of the last Ŝ's curvature.
-    curvature : design.curvature.PrincipalCurvature, optional
+    curvature : airmat.design.curvature.PrincipalCurvature, optional
         Of ``relax.xyz``, if already computed (it is then not computed again).
     curvature_radius : float
         Neighbourhood of the curvature fit (mean edge lengths), as for Ŝ's curvature.
     k_a1, k_a2, k_a3, tol, stall, max_iter
-        As in :func:`design.relax.relax_to_target`.
+        As in :func:`airmat.design.relax.relax_to_target`.
 
     Returns
     -------
-    relax : design.relax.RelaxResult
+    relax : airmat.design.relax.RelaxResult
         The input unchanged when the named face keeps Ω's lengths everywhere; else Ŝ
         in the face metric (``n_iter`` adds the rounds' iterations, ``converged`` is
         the last round's, the message says so).
     metric : FaceMetric
         The metric of the returned Ŝ's start (the last round's).
     """
-    from design.curvature import principal_curvature
-    from design.relax import relax_from
+    from airmat.design.curvature import principal_curvature
+    from airmat.design.relax import relax_from
 
     x = relax.xyz
     curv = principal_curvature(x, faces, radius=curvature_radius) if curvature is None else curvature

@@ -1,12 +1,12 @@
 """The U_A solver of the relaxation (paper §3.2, Eq. 4): a local-global iteration with Anderson acceleration.
 
 U_A = Σ_edges ½ k_A1 (ε − ε0)² + Σ_vertices ½ k_A2 ‖x − x_closest‖² + Σ_vertices ½ k_A3 ‖L x‖²
-(design.relax says what each term stands for and where the iteration starts).
+(airmat.design.relax says what each term stands for and where the iteration starts).
 The solver is a local-global (projective dynamics) iteration: the local step
 projects each edge onto its rest length and each vertex onto S (one BVH query
 for all vertices), the global step solves one linear system whose matrix
 ``k_A1 AᵀA + k_A2 I + k_A3 LᵀL`` never changes, so it is factorised once.
-Anderson acceleration (design.anderson) speeds it up; an accelerated step
+Anderson acceleration (airmat.design.anderson) speeds it up; an accelerated step
 that raises U_A is replaced by the plain step, so U_A never increases.
 
 Stopping rule: the largest unbalanced force on a vertex, |∂U_A/∂x_i|, below
@@ -30,7 +30,7 @@ from scipy.sparse.linalg import splu
 
 from airmat.errors import ConvergenceError
 from airmat.geometry.topology import boundary_edge_mask, cotangent_matrix, mesh_edges
-from design.anderson import AndersonAcceleration
+from airmat.design.anderson import AndersonAcceleration
 
 __all__ = ["UAProblem", "iterate", "umbrella_operator", "REFERENCE_SPACING", "STALL_WINDOW"]
 
@@ -105,7 +105,7 @@ class UAProblem:
 
     def project(self, x):
         """A2's targets (n, 3): closest points on S, continued across its rim by tangent planes
-        (``extend_rim``, design.closest_point.MeshProjector.closest_extended) or not."""
+        (``extend_rim``, airmat.design.closest_point.MeshProjector.closest_extended) or not."""
         return (self.projector.closest_extended(x) if self.extend_rim else self.projector.closest(x)).points
 
     def energy(self, x, cp) -> dict:

@@ -34,7 +34,7 @@ class Dash:
         Arc length of ``polyline`` (m), the geodesic spacing L of the string ends.
     a_node, b_node : (int, int) or None
         (row, col) of the mattress's grid node each end is tied to
-        (:mod:`design.tie_grid`), None for free ends.
+        (:mod:`airmat.design.tie_grid`), None for free ends.
     """
 
     id: str
@@ -81,7 +81,7 @@ class TensionString:
         |κ| even at l = 0 (those samples are clipped to l = 0).
     free_span : float or None
         The span (m) Equation 3 was evaluated at: the length the string's free face has
-        between the ties on Ŝ, at most the dash's length (:mod:`design.free_face`);
+        between the ties on Ŝ, at most the dash's length (:mod:`airmat.design.free_face`);
         None: the dash's length.
     """
 
@@ -116,11 +116,11 @@ class Pattern:
         Dashes per family whose |κ| is too small to need a string.
     notes : tuple of str
         What the tracer and the length step skipped and why.
-    tie_grid : design.tie_grid.TieGridReport or None
+    tie_grid : airmat.design.tie_grid.TieGridReport or None
         Grid pitch and how far snapping the ends to it moved them; None when not known.
     coverage : dict or None
         How far the points that need strings lie from them, per family (mm,
-        :meth:`design.coverage.Coverage.summary_mm`); None when not known.
+        :meth:`airmat.design.coverage.Coverage.summary_mm`); None when not known.
     """
 
     strings: tuple

@@ -1,11 +1,11 @@
 """The whole designer in one call: target S -> Ŝ -> field on Ω -> stripes -> string lengths.
 
-:func:`design` chains the surface side (design.surface: U_A relaxation to
+:func:`design` chains the surface side (airmat.design.surface: U_A relaxation to
 Ŝ, principal curvature, constructibility, transfer to Ω) and the pattern
-side (design.stripes, design.string_lengths), timing each stage, and returns
+side (airmat.design.stripes, airmat.design.string_lengths), timing each stage, and returns
 a :class:`DesignResult` that the check takes as it is
-(:func:`check.inflation_check.check`). Its files are written and read back
-by :mod:`design.design_io`. SI units (m, 1/m).
+(:func:`airmat.check.inflation_check.check`). Its files are written and read back
+by :mod:`airmat.design.design_io`. SI units (m, 1/m).
 """
 
 from __future__ import annotations
@@ -20,15 +20,16 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
-from calib.model import kappa_max
-from design.calibration_source import CalibrationSource, default_calibration
-from design.coverage import pattern_coverage
-from design.field import MattressField
-from design.pattern import Pattern
-from design.string_lengths import string_pattern
-from design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
-from design.tie_grid import snap_dashes
-from design.surface import ApproxSurface, approximate_surface, mattress_field
+from airmat.calib.model import kappa_max
+from airmat.design.calibration_source import CalibrationSource, default_calibration, from_calibration
+from airmat.design.coverage import pattern_coverage
+from airmat.design.field import MattressField
+from airmat.design.pattern import Pattern
+from airmat.design.string_lengths import string_pattern
+from airmat.design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
+from airmat.design.tie_grid import snap_dashes
+from airmat.design.surface import ApproxSurface, approximate_surface, mattress_field
+from airmat.summary import Summarized
 
 __all__ = ["DesignParams", "DesignResult", "design"]
 
@@ -65,7 +66,7 @@ class DesignParams:
         Mesh spacing of Ω for the relaxation (m).
     k_a1, k_a2, k_a3 : float or None
         U_A weights (edge lengths, closest point, smoothing); None: the defaults of
-        :func:`design.surface.approximate_surface`.
+        :func:`airmat.design.surface.approximate_surface`.
     kappa_min : float
         |κ| (1/m) below which a family needs no string.
     weight_min : float
@@ -75,14 +76,14 @@ class DesignParams:
     tie_grid : float
         Pitch of the grid mesh on the mattress's faces (m, paper §2.1: 0.02): each
         dash's ends are snapped to its nodes and L recomputed per dash
-        (:mod:`design.tie_grid`); 0 leaves the ends free.
+        (:mod:`airmat.design.tie_grid`); 0 leaves the ends free.
     face_metric : bool
-        Ŝ in the metric of the face it stands for (:mod:`design.face_metric`): on a
+        Ŝ in the metric of the face it stands for (:mod:`airmat.design.face_metric`): on a
         design with curvature of both signs the named face carries the minority
         family's strings and shortens along them; one-signed designs are unchanged.
         False: Ω's metric everywhere (the paper's A1).
     free_face_span : bool
-        Evaluate Equation 3 at each string's free-face span on Ŝ (:mod:`design.free_face`:
+        Evaluate Equation 3 at each string's free-face span on Ŝ (:mod:`airmat.design.free_face`:
         shorter where Ŝ compresses the face opposite the string). False: at the dash's
         span on Ω (the paper).
     """
@@ -125,27 +126,27 @@ class DesignParams:
                 "free_face_span": bool(self.free_face_span)}
 
 
-@dataclass(frozen=True)
-class DesignResult:
+@dataclass(frozen=True, repr=False)
+class DesignResult(Summarized):
     """Everything a design produced (SI units), from :func:`design` or read back from its folder.
 
     Attributes
     ----------
     name : str
         The target's name.
-    approx : design.surface.ApproxSurface
+    approx : airmat.design.surface.ApproxSurface
         Ŝ with its Ω coordinates and constructibility report (and, in memory, the
         relaxation result and the curvature).
-    pattern : design.pattern.Pattern
+    pattern : airmat.design.pattern.Pattern
         The strings with lengths and tolerances.
     calibration : CalibrationSource
         The posterior samples the lengths were computed from.
     params : DesignParams
         With ``L`` resolved.
     seed : int
-    mfield : design.field.MattressField or None
+    mfield : airmat.design.field.MattressField or None
         The principal-curvature field on Ω (None when read from files).
-    stripes : design.stripes.Stripes or None
+    stripes : airmat.design.stripes.Stripes or None
         Lines and dashes of both families (None when read from files).
     source : str or None
         The folder the design was written to or read from, if any.
@@ -154,10 +155,10 @@ class DesignResult:
     refine : dict or None
         The ``refine`` block of design.json (mm) when the lengths were refined through the
         inflation (:func:`check.refine.refine`), else None.
-    open_loop : tuple of design.pattern.TensionString or None
+    open_loop : tuple of airmat.design.pattern.TensionString or None
         A refined design's strings before any refinement, at their open-loop lengths, the
         dropped ones included: its inflations start from these strings' equilibrium and carry it
-        on to the refined lengths (:func:`check.inflation_check.check`). None when not refined.
+        on to the refined lengths (:func:`airmat.check.inflation_check.check`). None when not refined.
     """
 
     name: str
@@ -173,9 +174,19 @@ class DesignResult:
     refine: dict | None = None
     open_loop: tuple | None = field(default=None, repr=False)
 
+
+    def _summary(self):
+        rep = self.approx.report
+        rows = [("target", self.name), ("strings", len(self.pattern.strings)),
+                ("constructible", "unknown" if rep is None else rep.constructible),
+                ("calibration", "uncalibrated" if self.calibration.uncalibrated else self.calibration.label)]
+        if self.refine:
+            rows.append(("refined", "yes"))
+        return "DesignResult", rows
+
     @property
     def mattress(self):
-        """The mattress (design.mattress.Mattress)."""
+        """The mattress (airmat.design.mattress.Mattress)."""
         return self.approx.mattress
 
 
@@ -195,20 +206,22 @@ def _span_notes(L: float, calibration) -> tuple:
     return (note,)
 
 
-def design(target, mattress, *, calibration: CalibrationSource | None = None,
+def design(target, mattress, *, calibration=None,
            params: DesignParams = DesignParams(), seed: int = 0, progress: bool = True) -> DesignResult:
     """Design the string pattern that bends ``mattress`` into an approximation of ``target``.
 
     Parameters
     ----------
-    target : design.target.Target or mesh
+    target : airmat.design.target.Target or mesh
         The guide surface S (m); any object with ``vertices``, ``faces`` and ``name``
-        is taken as a Target (:meth:`design.target.Target.from_mesh`).
-    mattress : design.mattress.Mattress
+        is taken as a Target (:meth:`airmat.design.target.Target.from_mesh`).
+    mattress : airmat.design.mattress.Mattress
         W, H, thickness (m).
-    calibration : CalibrationSource, optional
-        Posterior of Equation 3's Δ and d; default the paper's values, labelled uncalibrated
-        (d = the mattress thickness).
+    calibration : CalibrationSource or airmat.calib.calibrate.Calibration, optional
+        Posterior of Equation 3's Δ and d (a Calibration, as :func:`airmat.calibrate` or
+        :func:`airmat.read_calibration` give it, is taken through
+        :func:`~airmat.design.calibration_source.from_calibration`); default the paper's
+        values, labelled uncalibrated (d = the mattress thickness).
     params : DesignParams
     seed : int
         Seed of every random step (the default calibration's samples).
@@ -228,6 +241,8 @@ def design(target, mattress, *, calibration: CalibrationSource | None = None,
     """
     if calibration is None:
         calibration = default_calibration(seed=seed, d=mattress.thickness)
+    elif not isinstance(calibration, CalibrationSource):
+        calibration = from_calibration(calibration)
     L = float(calibration.L if params.L is None else params.L)
     params = dataclasses.replace(params, L=L, mu1=L if params.mu1 is None else params.mu1)
     sp = params.stripe_params(L)

@@ -7,7 +7,7 @@ longest direction (PCA of S's area-weighted face centroids), its top
 normal on the side S's face normals point to, and touching S where the
 normal axis through S's centroid meets it. :func:`candidate_placements`
 adds that placement turned by 90°, 180° and 270° about the normal, for a
-caller (design.relax) that keeps the one S accommodates best: S's longest
+caller (airmat.design.relax) that keeps the one S accommodates best: S's longest
 straight extent is not always its longest unrolled one (a cylinder with
 more arc than axis).
 """
@@ -48,10 +48,10 @@ def auto_placement(target, width: float, height: float, *, projector=None) -> np
 
     Parameters
     ----------
-    target : design.target.Target
+    target : airmat.design.target.Target
     width, height : float
         W and H of Ω (m).
-    projector : design.closest_point.MeshProjector, optional
+    projector : airmat.design.closest_point.MeshProjector, optional
         A BVH over the target (built when not given).
 
     Returns
@@ -61,7 +61,7 @@ def auto_placement(target, width: float, height: float, *, projector=None) -> np
         its centroid meets S (nearest hit; the closest point when the axis misses S),
         Ω's longer side along S's longest principal direction.
     """
-    from design.closest_point import MeshProjector
+    from airmat.design.closest_point import MeshProjector
 
     mean, axes = _pca_frame(target)
     n, long_axis = axes[:, 2], axes[:, 0]
@@ -87,10 +87,10 @@ def candidate_placements(target, width: float, height: float, *, projector=None)
 
     Parameters
     ----------
-    target : design.target.Target
+    target : airmat.design.target.Target
     width, height : float
         W and H of Ω (m).
-    projector : design.closest_point.MeshProjector, optional
+    projector : airmat.design.closest_point.MeshProjector, optional
         A BVH over the target.
 
     Returns

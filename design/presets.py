@@ -21,8 +21,8 @@ import numpy as np
 from airmat.constants import LARGE_MATTRESS, SMALL_MATTRESS
 from airmat.errors import InputError
 from airmat.geometry.grid import parametric_mesh
-from design.mattress import Mattress
-from design.target import Target
+from airmat.design.mattress import Mattress
+from airmat.design.target import Target
 
 __all__ = ["preset", "profile_surface", "dome_surface", "PRESETS"]
 
@@ -123,8 +123,8 @@ def preset(name: str):
 
     Returns
     -------
-    target : design.target.Target
-    mattress : design.mattress.Mattress
+    target : airmat.design.target.Target
+    mattress : airmat.design.mattress.Mattress
 
     Raises
     ------

@@ -6,9 +6,9 @@ The mesh M (Ω's triangulation) starts flat on S and minimises
 
 (A1: edges keep their Ω length ε0; A2: vertices move to their closest point
 on S, where S is continued across its rim by the rim faces' tangent planes,
-design.closest_point.MeshProjector.closest_extended; A3: vertices move toward their neighbours' average, with the cotangent
+airmat.design.closest_point.MeshProjector.closest_extended; A3: vertices move toward their neighbours' average, with the cotangent
 weights of flat Ω, so that flat Ω is a rest state of A3). The solver, its
-stopping rule and its resolution-independent weights are design.local_global
+stopping rule and its resolution-independent weights are airmat.design.local_global
 (a local-global, projective-dynamics iteration with Anderson acceleration);
 this module chooses where it starts and reports Ŝ.
 Wrapping a fine flat mesh around a strongly curved S in one go can crumple
@@ -22,7 +22,7 @@ continued by its tangent plane there. Ŝ reports, per vertex, how far it
 lies beyond S (``off_target``).
 
 Placement: unless given, Ω is tried in four orientations on S
-(design.placement.candidate_placements), each relaxed briefly on a coarse
+(airmat.design.placement.candidate_placements), each relaxed briefly on a coarse
 grid, and the one that leaves the least of Ω off S is kept (the default
 one unless another is clearly better; a target that covers the mattress
 keeps it without trying the others). Lowest U_A is not the criterion: with
@@ -43,9 +43,9 @@ from airmat.errors import ConvergenceError
 from airmat.geometry.topology import mesh_edges
 from airmat.progress import progress as progress_bar
 from airmat.progress import progress_enabled
-from design.closest_point import MeshProjector
-from design.local_global import REFERENCE_SPACING, STALL_WINDOW, UAProblem, iterate, umbrella_operator
-from design.placement import apply_placement, candidate_placements, placement_matrix
+from airmat.design.closest_point import MeshProjector
+from airmat.design.local_global import REFERENCE_SPACING, STALL_WINDOW, UAProblem, iterate, umbrella_operator
+from airmat.design.placement import apply_placement, candidate_placements, placement_matrix
 
 __all__ = ["RelaxResult", "relax_to_target", "relax_from", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
 
@@ -82,7 +82,7 @@ class RelaxResult:
     distance : dict
         ``mean`` and ``max`` distance (m) from Ŝ's vertices to S.
     placement : ndarray of shape (4, 4)
-        The start placement of Ω used (see design.placement).
+        The start placement of Ω used (see airmat.design.placement).
     off_target : ndarray of shape (n,)
         Distance (m) from each vertex of Ŝ to S where its closest point on S lies on S's rim
         (the vertex overhangs S, A2 only pulls it onto the rim face's tangent plane), else 0.
@@ -113,12 +113,12 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
         Vertices of Ω's triangulation (m); their distances are the rest lengths.
     faces : ndarray of shape (m, 3)
         Triangles, counter-clockwise on Ω (so Ŝ's face normals are the top normal).
-    target : design.target.Target
+    target : airmat.design.target.Target
         The guide surface S (m).
     placement : (4, 4) ndarray or (offset, rotation), optional
-        Where flat Ω starts (design.placement.placement_matrix); default: the one of
-        :func:`design.placement.candidate_placements` that leaves the least of Ω off S
-        after a short coarse relaxation (the first, :func:`design.placement.auto_placement`,
+        Where flat Ω starts (airmat.design.placement.placement_matrix); default: the one of
+        :func:`airmat.design.placement.candidate_placements` that leaves the least of Ω off S
+        after a short coarse relaxation (the first, :func:`airmat.design.placement.auto_placement`,
         unless another one is better by more than 1 % of Ω's area).
     k_a1 : float, default 1.0
         Weight of A1, edges keeping their length (per edge).
@@ -152,7 +152,7 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
         Show a progress bar (only when stderr is a terminal).
     strict : bool, default False
         Raise ConvergenceError instead of returning unconverged.
-    projector : design.closest_point.MeshProjector, optional
+    projector : airmat.design.closest_point.MeshProjector, optional
         A BVH over the target to reuse.
 
     Returns
@@ -219,7 +219,7 @@ def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: floa
                anderson: int = 5):
     """Minimise U_A from ``x0`` on the fine mesh only, optionally with other A1 rest lengths.
 
-    The building block of a relaxation in another metric (design.face_metric):
+    The building block of a relaxation in another metric (airmat.design.face_metric):
     no placement, no coarse start.
 
     Parameters
@@ -228,7 +228,7 @@ def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: floa
         Start positions (m), e.g. a relaxed Ŝ.
     uv, faces : ndarray of shape (n, 2), (m, 3)
         Ω's triangulation (m).
-    projector : design.closest_point.MeshProjector
+    projector : airmat.design.closest_point.MeshProjector
         The target S.
     rest : ndarray of shape (e,), optional
         A1 rest length (m) of each edge of ``mesh_edges(faces)``; default its length on Ω.
@@ -265,7 +265,7 @@ def _coarse_levels(h, width, height):
 
 
 def _best_placement(target, projector, width, height, *, spacing, k, stall, anderson):
-    """The candidate placement (design.placement.candidate_placements) that S covers best.
+    """The candidate placement (airmat.design.placement.candidate_placements) that S covers best.
 
     Each candidate is relaxed for at most PLACEMENT_ITER iterations on the coarsest grid
     of the coarse start; its score is the share of Ω's area then beyond S's rim. The first
@@ -275,7 +275,7 @@ def _best_placement(target, projector, width, height, *, spacing, k, stall, ande
     Returns the placement (4, 4) and, when the chosen candidate's relaxation converged
     (so the coarse start would compute the same), its coarse grid and positions (cuv, x).
     """
-    from design.mattress import Mattress, triangulate_mattress
+    from airmat.design.mattress import Mattress, triangulate_mattress
 
     candidates = candidate_placements(target, width, height, projector=projector)
     coarse = spacing * 2 ** _coarse_levels(spacing, width, height)
@@ -310,7 +310,7 @@ def _coarse_start(uv, mat, projector, *, spacing, levels, k, stall, max_iter, an
     """
     from scipy.interpolate import LinearNDInterpolator
 
-    from design.mattress import Mattress, triangulate_mattress
+    from airmat.design.mattress import Mattress, triangulate_mattress
 
     width, height = uv.max(axis=0)
     mattress = Mattress(float(width), float(height))

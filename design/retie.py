@@ -85,7 +85,7 @@ def _end_cost(a_strings, b_strings) -> np.ndarray:
 
 
 def retie_plan(design_a, design_b) -> RetiePlan:
-    """The re-tie list from design A to design B (both :class:`~design.pipeline.DesignResult`).
+    """The re-tie list from design A to design B (both :class:`~airmat.design.pipeline.DesignResult`).
 
     Raises
     ------

@@ -64,7 +64,7 @@ class FieldGrid:
 
 
 def sample_field_grid(mfield, family: int, *, spacing: float) -> FieldGrid:
-    """Resample family ``family`` of a :class:`~design.field.MattressField` on a grid.
+    """Resample family ``family`` of a :class:`~airmat.design.field.MattressField` on a grid.
 
     Parameters
     ----------

@@ -17,7 +17,7 @@ l = string_length(|κ|, L, Δ, d), evaluated for every posterior sample of
 - A dash whose chord is much shorter than its arc length (a line curving
   strongly on Ω) is flagged ``curved``: the string pulls along the chord.
 - Given Ŝ, Equation 3's span is the string's free face's length between the
-  ties on Ŝ, at most the dash's length (:mod:`design.free_face`), not the dash's
+  ties on Ŝ, at most the dash's length (:mod:`airmat.design.free_face`), not the dash's
   length on Ω: where Ŝ compresses that face, the string is shorter.
 
 SI units: metres, 1/m.
@@ -30,11 +30,11 @@ import logging
 import numpy as np
 
 from airmat.geometry.polyline import points_at_fractions
-from calib.model import flat_length, kappa_max, string_length
-from design.face_metric import strings_named_face
-from design.field import FAMILIES
-from design.free_face import free_face_ratio
-from design.pattern import Pattern, TensionString
+from airmat.calib.model import flat_length, kappa_max, string_length
+from airmat.design.face_metric import strings_named_face
+from airmat.design.field import FAMILIES
+from airmat.design.free_face import free_face_ratio
+from airmat.design.pattern import Pattern, TensionString
 
 __all__ = ["dash_kappa", "length_quantiles", "string_pattern"]
 
@@ -112,7 +112,7 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     ----------
     mfield : MattressField
     dashes : sequence of Dash
-        From :func:`design.stripes.trace_stripes` (arc length ``L``).
+        From :func:`airmat.design.stripes.trace_stripes` (arc length ``L``).
     calibration : CalibrationSource
         Posterior samples of Δ and d (m).
     L : float
@@ -123,14 +123,14 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
         Dashes with |κ| below this (1/m) get no string.
     notes : sequence of str
         Carried into the pattern (e.g. the stripe tracer's notes).
-    tie_grid : design.tie_grid.TieGridReport, optional
+    tie_grid : airmat.design.tie_grid.TieGridReport, optional
         When the dashes' ends were snapped to the mattress's grid: each string's
         length then comes from Equation 3 at its own dash's L (``dash.length``),
         not at ``L``; the report is kept in the pattern.
-    approx : design.surface.ApproxSurface, optional
+    approx : airmat.design.surface.ApproxSurface, optional
         Ŝ: Equation 3 is then evaluated at each string's free-face span on it,
-        min(c, 1) times the dash's span (:func:`design.free_face.free_face_ratio`, with
-        the named face of :func:`design.face_metric.strings_named_face`); None: at the dash's span.
+        min(c, 1) times the dash's span (:func:`airmat.design.free_face.free_face_ratio`, with
+        the named face of :func:`airmat.design.face_metric.strings_named_face`); None: at the dash's span.
 
     Returns
     -------

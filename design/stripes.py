@@ -1,7 +1,7 @@
 """Stripes of dashes along the principal-curvature lines on Ω (paper §3.3.2).
 
 For each family (k1, k2) the principal lines are laid out μ₂ apart
-(:mod:`design.streamlines`), then each line is cut into dashes of arc length
+(:mod:`airmat.design.streamlines`), then each line is cut into dashes of arc length
 L repeating with period μ₁ (μ₁ ≥ L). Neighbouring lines are staggered by
 half a period so that the wrinkles of neighbouring strings do not line up:
 a line seeded beside its parent takes the parent's dash grid, carried over
@@ -23,9 +23,9 @@ import numpy as np
 from airmat.constants import PAPER_L
 from airmat.errors import InputError
 from airmat.geometry.polyline import interpolate_at
-from design.field import FAMILIES
-from design.pattern import Dash
-from design.streamlines import sample_field_grid, trace_streamlines
+from airmat.design.field import FAMILIES
+from airmat.design.pattern import Dash
+from airmat.design.streamlines import sample_field_grid, trace_streamlines
 
 __all__ = ["StripeParams", "FamilyStripes", "Stripes", "check_stripe_params", "trace_stripes",
            "dash_phases", "cut_dashes"]

@@ -1,10 +1,10 @@
 """The surface side of the designer in one call: target S -> Ŝ -> curvature field on Ω.
 
 :func:`approximate_surface` triangulates Ω, relaxes it onto S (U_A,
-design.relax), estimates Ŝ's principal curvatures (design.curvature) and
-reports constructibility (design.constructibility);
+airmat.design.relax), estimates Ŝ's principal curvatures (airmat.design.curvature) and
+reports constructibility (airmat.design.constructibility);
 :func:`mattress_field` carries the curvature field onto Ω
-(design.transfer) for the pattern side. SI units: m, 1/m.
+(airmat.design.transfer) for the pattern side. SI units: m, 1/m.
 """
 
 from __future__ import annotations
@@ -16,15 +16,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from airmat.errors import ConvergenceError
-from design.closest_point import MeshProjector
-from design.constructibility import PAPER_KAPPA_MAX, ConstructibilityReport, constructibility
-from design.curvature import PrincipalCurvature, principal_curvature
-from design.face_metric import relax_in_face_metric
-from design.field import MattressField
-from design.mattress import Mattress, triangulate_mattress
-from design.relax import RelaxResult, relax_to_target
-from design.target import Target, check_scale
-from design.transfer import transfer_to_mattress
+from airmat.design.closest_point import MeshProjector
+from airmat.design.constructibility import PAPER_KAPPA_MAX, ConstructibilityReport, constructibility
+from airmat.design.curvature import PrincipalCurvature, principal_curvature
+from airmat.design.face_metric import relax_in_face_metric
+from airmat.design.field import MattressField
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.relax import RelaxResult, relax_to_target
+from airmat.design.target import Target, check_scale
+from airmat.design.transfer import transfer_to_mattress
 
 __all__ = ["ApproxSurface", "approximate_surface", "mattress_field"]
 
@@ -35,25 +35,25 @@ log = logging.getLogger(__name__)
 class ApproxSurface:
     """Ŝ: the near-developable surface the mattress can make, with its curvature and report.
 
-    A Ŝ read back from a design folder (:func:`design.design_io.read_design`)
+    A Ŝ read back from a design folder (:func:`airmat.design.design_io.read_design`)
     has ``target``, ``relax`` and ``curvature`` None: the files keep Ŝ, its Ω
     coordinates and the report, not the relaxation's history.
 
     Attributes
     ----------
-    target : design.target.Target or None
-    mattress : design.mattress.Mattress
+    target : airmat.design.target.Target or None
+    mattress : airmat.design.mattress.Mattress
     xyz : ndarray of shape (n, 3)
         Vertices of Ŝ (m).
     uv : ndarray of shape (n, 2)
         The same vertices on Ω (m).
     faces : ndarray of shape (m, 3)
         Shared triangles, counter-clockwise on Ω.
-    relax : design.relax.RelaxResult or None
+    relax : airmat.design.relax.RelaxResult or None
         The U_A relaxation (converged, n_iter, residual, message, energy, placement).
-    curvature : design.curvature.PrincipalCurvature or None
+    curvature : airmat.design.curvature.PrincipalCurvature or None
         Per-vertex principal curvatures of Ŝ, signed against the top normal.
-    report : design.constructibility.ConstructibilityReport or None
+    report : airmat.design.constructibility.ConstructibilityReport or None
         Table-1 figures and verdict (None for a design folder written by another tool).
     timings : dict
         Seconds per stage: ``triangulate``, ``relax``, ``curvature``, ``report``.
@@ -81,21 +81,21 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
 
     Parameters
     ----------
-    target : design.target.Target or mesh
+    target : airmat.design.target.Target or mesh
         The guide surface S (m); any object with ``vertices``, ``faces`` and ``name``
-        (e.g. an analytic surface of data_synthetic.targets) is taken as a Target
-        (:meth:`design.target.Target.from_mesh`).
-    mattress : design.mattress.Mattress
+        (e.g. an analytic surface of airmat.synthetic.targets) is taken as a Target
+        (:meth:`airmat.design.target.Target.from_mesh`).
+    mattress : airmat.design.mattress.Mattress
     spacing : float, default 0.02
         Mesh spacing on Ω (m).
     placement : (4, 4) ndarray or (offset, rotation), optional
-        Start placement of Ω (design.placement); default: centred on S's principal frame.
+        Start placement of Ω (airmat.design.placement); default: centred on S's principal frame.
     k_a1, k_a2, k_a3 : float, default 1.0, 0.2, 0.02
-        U_A weights (design.relax.relax_to_target; k_a2, k_a3 at 20 mm spacing).
+        U_A weights (airmat.design.relax.relax_to_target; k_a2, k_a3 at 20 mm spacing).
     tol, stall, max_iter : float, float, int
-        Relaxation stopping rule (design.relax.relax_to_target).
+        Relaxation stopping rule (airmat.design.relax.relax_to_target).
     sigma_band : (float, float), default (0.9, 1.1)
-        Tolerated edge length ratio Ŝ/Ω (design.constructibility).
+        Tolerated edge length ratio Ŝ/Ω (airmat.design.constructibility).
     kappa_max : float, optional
         Reachable curvature (1/m); default the paper's calibration (15.66 1/m).
     curvature_radius : float, default 2.5
@@ -106,7 +106,7 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
         Raise ConvergenceError when the relaxation does not converge.
     face_metric : bool, default True
         Relax Ŝ again in the metric of the face it stands for
-        (:func:`design.face_metric.relax_in_face_metric`, with the mattress's thickness):
+        (:func:`airmat.design.face_metric.relax_in_face_metric`, with the mattress's thickness):
         where the curvature has both signs (a saddle), that face carries the minority
         family's strings and shortens along them. A design whose curvature has one
         sign is unchanged. False: Ω's metric everywhere (the paper's A1).
@@ -169,7 +169,7 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
 
 def mattress_field(approx: ApproxSurface, *, smoothing_length: float = 0.03,
                    anisotropy_scale: float = 0.5) -> MattressField:
-    """The principal-curvature field of Ŝ carried onto Ω (design.transfer.transfer_to_mattress).
+    """The principal-curvature field of Ŝ carried onto Ω (airmat.design.transfer.transfer_to_mattress).
 
     Parameters
     ----------
@@ -181,7 +181,7 @@ def mattress_field(approx: ApproxSurface, *, smoothing_length: float = 0.03,
 
     Returns
     -------
-    design.field.MattressField
+    airmat.design.field.MattressField
         With ``meta`` holding the target name, the Table-1 report and the relaxation message.
     """
     m = approx.mattress

@@ -15,7 +15,7 @@ import trimesh
 from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.units import M_TO_MM, MM
-from calib.scan_readers.cut_short import check_complete
+from airmat.calib.scan_readers.cut_short import check_complete
 
 __all__ = ["write_approx_surface", "read_approx_surface"]
 
@@ -64,7 +64,7 @@ def read_approx_surface(path):
     Raises
     ------
     airmat.errors.InputError
-        When the file is missing, unreadable, cut short (:mod:`calib.scan_readers.cut_short`) or
+        When the file is missing, unreadable, cut short (:mod:`airmat.calib.scan_readers.cut_short`) or
         lacks the ``u_mm``/``v_mm`` properties.
     """
     path = Path(path)

@@ -5,7 +5,7 @@ otherwise. Every problem a user can cause raises
 :class:`airmat.errors.InputError` naming the file: missing or unreadable
 file, empty mesh, non-triangle faces, non-manifold edges, NaN/inf
 coordinates, several separate sheets or a closed solid
-(:mod:`design.target_pieces`), and a size that does not fit the mattress
+(:mod:`airmat.design.target_pieces`), and a size that does not fit the mattress
 (a units slip).
 
 Non-triangle faces are refused, not triangulated: a quad can be split
@@ -27,11 +27,12 @@ import numpy as np
 from airmat.errors import InputError
 from airmat.geometry.topology import edge_counts
 from airmat.units import SCAN_UNITS
-from calib.scan_readers.cut_short import check_complete, complete_binary_stl
-from calib.scan_readers.obj_indices import check_obj_indices
-from calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
-from calib.scan_readers.raw import library_message
-from design.target_pieces import check_one_sheet
+from airmat.calib.scan_readers.cut_short import check_complete, complete_binary_stl
+from airmat.calib.scan_readers.obj_indices import check_obj_indices
+from airmat.calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
+from airmat.calib.scan_readers.raw import library_message
+from airmat.design.target_pieces import check_one_sheet
+from airmat.summary import Summarized
 
 __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
 
@@ -44,8 +45,8 @@ UNITS = {**SCAN_UNITS, "cm": 0.01}
 SCALE_RANGE = (0.2, 50.0)
 
 
-@dataclass(frozen=True, eq=False)
-class Target:
+@dataclass(frozen=True, eq=False, repr=False)
+class Target(Summarized):
     """A target surface S: a triangle mesh in metres.
 
     Parameters
@@ -67,13 +68,19 @@ class Target:
         For an empty mesh, wrong shapes, indices out of range, NaN/inf
         vertices or non-manifold edges (the count is in ``err.data``), and
         for several separate sheets or a closed surface
-        (:func:`design.target_pieces.check_one_sheet`).
+        (:func:`airmat.design.target_pieces.check_one_sheet`).
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     name: str = "target"
     units: str = "m"
+
+
+    def _summary(self):
+        lo, hi = self.vertices.min(axis=0), self.vertices.max(axis=0)
+        return f"Target {self.name}", [("vertices", len(self.vertices)), ("faces", len(self.faces)),
+                                       ("extent", " x ".join(f"{x * 1e3:.0f}" for x in hi - lo) + " mm")]
 
     def __post_init__(self):
         v = np.asarray(self.vertices, dtype=float)
@@ -87,7 +94,7 @@ class Target:
     def from_mesh(cls, mesh, *, name: str | None = None) -> "Target":
         """The target of any mesh object with ``vertices`` (m) and ``faces`` (and optionally ``name``).
 
-        E.g. an analytic surface of :mod:`data_synthetic.targets` or a ``trimesh.Trimesh`` in metres.
+        E.g. an analytic surface of :mod:`airmat.synthetic.targets` or a ``trimesh.Trimesh`` in metres.
         A Target is returned as it is (unless ``name`` renames it).
 
         Parameters
@@ -228,7 +235,7 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         Units of the file's coordinates.
     name : str, optional
         Name of the target (default: the file's stem).
-    mattress : design.mattress.Mattress, optional
+    mattress : airmat.design.mattress.Mattress, optional
         When given, also check that the target's size fits the mattress
         (:func:`check_scale`).
 
@@ -241,7 +248,7 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     ------
     airmat.errors.InputError
         With ``path`` set: missing or unreadable file, a file cut short
-        (:mod:`calib.scan_readers.cut_short`), unknown format or
+        (:mod:`airmat.calib.scan_readers.cut_short`), unknown format or
         units, empty mesh, non-triangle faces, NaN/inf coordinates,
         non-manifold edges, several sheets or a closed surface, a size
         that does not fit the mattress.
@@ -307,7 +314,7 @@ def check_scale(target: Target, mattress) -> None:
     ----------
     target : Target
         Its ``units`` (those it was read in) let the message suggest the right ones.
-    mattress : design.mattress.Mattress
+    mattress : airmat.design.mattress.Mattress
 
     Raises
     ------

@@ -114,7 +114,7 @@ def snap_dashes(dashes, *, grid: float, width: float, height: float):
 
     Examples
     --------
-    >>> from design.pattern import Dash
+    >>> from airmat.design.pattern import Dash
     >>> d = Dash("k1-001-01", "k1", 1, 1, np.array([[0.101, 0.203], [0.399, 0.207]]), 0.298)
     >>> (s,), rep = snap_dashes([d], grid=0.02, width=0.83, height=0.74)
     >>> s.polyline.round(6).tolist(), s.a_node, s.b_node, round(s.length, 6)

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from design.field import MattressField
+from airmat.design.field import MattressField
 
 __all__ = ["face_jacobians", "transfer_to_mattress", "direction_weight"]
 
@@ -114,7 +114,7 @@ def transfer_to_mattress(xyz, uv, faces, kappa, dirs3d, *, width: float, height:
 
     Returns
     -------
-    design.field.MattressField
+    airmat.design.field.MattressField
         ``kappa`` (n, 2): normal curvatures along the smoothed k1 and k2 lines;
         ``direction`` (n, 2, 2): unit lines on Ω, k2 ⟂ k1; ``weight`` (n,): the
         reliability w.

@@ -16,7 +16,7 @@ Comparing an inflation with Ŝ is the check's job (the ``check`` package).
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
 from airmat.lazy import attach
 
-# public name -> its submodule, imported on first use (``airmat.lazy``): ``import inflation.mesh``
+# public name -> its submodule, imported on first use (``airmat.lazy``): ``import airmat.inflation.mesh``
 # runs this file first, and it must not load the solver and cvxopt
 __getattr__, __dir__, __all__ = attach(__name__, {
     "mesh": ["MattressMesh", "build_mattress_mesh"],

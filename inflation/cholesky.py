@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from inflation.cholmod_block import solve_many
+from airmat.inflation.cholmod_block import solve_many
 
 __all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "import_cvxopt", "cvxopt_bundled_library",
            "cvxopt_blas_kernels"]
@@ -242,7 +242,7 @@ class ShiftedCholesky:
         """Solve ``(h + mu I) x = b`` with the last successful factorization; b of shape (n,) or (n, m).
 
         With ``one_call`` (the default) several columns are solved together by CHOLMOD
-        (:func:`inflation.cholmod_block.solve_many`), else (or where that cannot solve) one at a
+        (:func:`airmat.inflation.cholmod_block.solve_many`), else (or where that cannot solve) one at a
         time by cvxopt's ``cholmod.solve``: the same answer to rounding.
         """
         if not self._ok:
@@ -250,7 +250,7 @@ class ShiftedCholesky:
         cholmod, matrix, _ = import_cvxopt()
         b = np.asarray(b, dtype=float)
         if one_call and b.ndim == 2 and b.shape[1] > 1:
-            x = solve_many(self._symbolic, b)       # all columns in one CHOLMOD call (inflation.cholmod_block)
+            x = solve_many(self._symbolic, b)       # all columns in one CHOLMOD call (airmat.inflation.cholmod_block)
             if x is not None:
                 return x
         x = matrix(np.array(b, dtype=float, copy=True, order="F"))

@@ -2,7 +2,7 @@
 
 cvxopt's ``cholmod.solve`` calls CHOLMOD once per column of the right-hand
 side, and every call streams the whole factor through memory: the adjoint
-Jacobian of the refinement (:func:`check.adjoint.equilibrium_jacobian`, one
+Jacobian of the refinement (:func:`airmat.check.adjoint.equilibrium_jacobian`, one
 column per string) is then bound by memory bandwidth. CHOLMOD itself solves
 all the columns of a dense right-hand side together, its supernodal
 triangular solves then being matrix–matrix (BLAS-3) products. This module
@@ -146,7 +146,7 @@ def column_blocks(n: int, k: int, threads: int) -> list[tuple[int, int]]:
 @functools.cache
 def _library() -> _Library | None:
     """cvxopt's libcholmod when it is CHOLMOD 3 to 5 with the long-integer interface; else None."""
-    from inflation.cholesky import cvxopt_bundled_library
+    from airmat.inflation.cholesky import cvxopt_bundled_library
 
     try:
         lib = cvxopt_bundled_library("cholmod")     # the library cvxopt has loaded: the same handle

@@ -14,7 +14,7 @@ edge may wrinkle; the switch is smoothed over a small stretch so that
 forces and stiffnesses are continuous.
 
 Hessians come as dense 3 × 3 blocks per vertex pair, assembled into a sparse
-matrix by :mod:`inflation.assembly`: exact, or with each spring block
+matrix by :mod:`airmat.inflation.assembly`: exact, or with each spring block
 projected to be positive semi-definite (``project=True``: the transverse
 term ``f(|r|)/|r|`` clamped at 0 for a compressed spring); the pressure term
 ``-p Vol`` is always exact (indefinite: the solver shifts when needed).

@@ -119,7 +119,7 @@ def build_mattress_mesh(width: float, height: float, thickness: float, *,
     >>> m.grid_shape, m.n_vertices
     ((9, 5), 114)
     """
-    import igl  # here, not at the top: 0.6 s that ``import inflation.mesh`` (the check's locate) need not pay
+    import igl  # here, not at the top: 0.6 s that ``import airmat.inflation.mesh`` (the check's locate) need not pay
 
     for name, x in (("width", width), ("height", height), ("thickness", thickness),
                     ("resolution", resolution)):

@@ -1,4 +1,4 @@
-"""Stiffnesses of U_B in nondimensional form, and the assembled :class:`~inflation.energy.Model`.
+"""Stiffnesses of U_B in nondimensional form, and the assembled :class:`~airmat.inflation.energy.Model`.
 
 Every stiffness is a multiple of a *reference* pressure ``p0`` (a material
 constant, not the inflation pressure ``p``) times lengths of the problem
@@ -46,9 +46,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from inflation.energy import Model, Springs, smoothing_matrix
-from inflation.mesh import MattressMesh
-from inflation.strings import StringSet, attach_strings, internal_strings
+from airmat.inflation.energy import Model, Springs, smoothing_matrix
+from airmat.inflation.mesh import MattressMesh
+from airmat.inflation.strings import StringSet, attach_strings, internal_strings
 
 __all__ = ["Parameters", "build_model", "stiffnesses", "with_strings"]
 

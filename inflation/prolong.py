@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from inflation.mesh import MattressMesh, locate
+from airmat.inflation.mesh import MattressMesh, locate
 
 __all__ = ["prolong", "coarse_resolutions"]
 
@@ -36,7 +36,7 @@ def prolong(coarse: MattressMesh, x_coarse: np.ndarray, fine: MattressMesh) -> n
 
     Examples
     --------
-    >>> from inflation.mesh import build_mattress_mesh
+    >>> from airmat.inflation.mesh import build_mattress_mesh
     >>> c = build_mattress_mesh(0.8, 0.4, 0.07, resolution=0.1)
     >>> f = build_mattress_mesh(0.8, 0.4, 0.07, resolution=0.05)
     >>> bool(np.allclose(prolong(c, c.vertices, f), f.vertices))

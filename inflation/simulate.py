@@ -23,13 +23,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from airmat.errors import ConvergenceError
-from inflation.assembly import build_assembler
-from inflation.energy import block_pattern
-from inflation.mesh import MattressMesh, build_mattress_mesh
-from inflation.model import Parameters, build_model
-from inflation.prolong import coarse_resolutions, prolong
-from inflation.solver import NewtonSystem, rigid_pins, solve
-from inflation.strings import StringSet
+from airmat.inflation.assembly import build_assembler
+from airmat.inflation.energy import block_pattern
+from airmat.inflation.mesh import MattressMesh, build_mattress_mesh
+from airmat.inflation.model import Parameters, build_model
+from airmat.inflation.prolong import coarse_resolutions, prolong
+from airmat.inflation.solver import NewtonSystem, rigid_pins, solve
+from airmat.inflation.strings import StringSet
+from airmat.summary import Summarized
 
 __all__ = ["Inflation", "inflate", "inflate_from", "inflate_many", "start_positions", "INFLATE_TOL"]
 
@@ -39,8 +40,8 @@ log = logging.getLogger(__name__)
 INFLATE_TOL = 1e-6
 
 
-@dataclass(frozen=True)
-class Inflation:
+@dataclass(frozen=True, repr=False)
+class Inflation(Summarized):
     """An inflated mattress.
 
     Attributes
@@ -77,6 +78,12 @@ class Inflation:
     stages: int
     string_lengths: np.ndarray
     levels: tuple = ()
+
+
+    def _summary(self):
+        return "Inflation", [("vertices", self.mesh.n_vertices), ("strings", len(self.string_lengths)),
+                             ("converged", self.converged), ("iterations", self.n_iter),
+                             ("residual", f"{self.residual:.2g}"), ("seconds", f"{self.seconds:.1f}")]
 
     @property
     def mid_surface(self) -> np.ndarray:
@@ -134,7 +141,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
           tol: float, stages: int, stage_tol: float, max_iter: int, hint_rel: float = 0.0):
     """Solve U_B on ``mesh`` from ``x``, with the string rest lengths ramped from their
     lengths at ``x`` to l* in ``stages`` steps (1: no ramp). ``hint_rel`` seeds the Newton shift
-    (see :class:`~inflation.solver.NewtonSystem`).
+    (see :class:`~airmat.inflation.solver.NewtonSystem`).
 
     Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``, the model)."""
     model = build_model(mesh, strings, params)
@@ -175,7 +182,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.
 
     The string ramp is solved on the coarsest mesh of the continuation
-    (:func:`~inflation.prolong.coarse_resolutions`: the resolution
+    (:func:`~airmat.inflation.prolong.coarse_resolutions`: the resolution
     doubled while it stays <= ``coarsest`` and leaves 3 edges along every
     string), then each finer mesh starts from the prolonged coarser solution
     with the strings at l*.
@@ -251,11 +258,11 @@ def inflate_from(start: Inflation, strings: StringSet | None, *, params: Paramet
                  tol: float = INFLATE_TOL, max_iter: int = 200, strict: bool = False) -> Inflation:
     """Carry an inflated equilibrium on to other strings, on its own mesh: Newton from ``start``, no ramp.
 
-    How a refined design is inflated (:func:`check.inflation_check.check`): its
+    How a refined design is inflated (:func:`airmat.check.inflation_check.check`): its
     open-loop strings are inflated from the flat mattress (:func:`inflate`), and
     that equilibrium is carried on to the refined lengths, the path the
     refinement's own equilibria took (each from the last one,
-    :mod:`check.refinement`). The strings need not be the same set: those
+    :mod:`airmat.check.refinement`). The strings need not be the same set: those
     absent from ``strings`` are untied at once.
 
     Parameters
@@ -295,7 +302,7 @@ def _inflate_task(shared, strings):
 def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = Parameters(),
                  strict: bool = False, workers: int = 1, scheduler: str | None = None,
                  desc: str = "inflate", start: Inflation | None = None) -> list:
-    """:func:`inflate` ``mesh`` once per string set, through :func:`inflation.executor.map_shared`.
+    """:func:`inflate` ``mesh`` once per string set, through :func:`airmat.inflation.executor.map_shared`.
 
     Each inflation is serial (the sparse Cholesky is single-threaded), so
     independent runs (a design's median / lo95 / hi95 lengths, Monte-Carlo
@@ -328,7 +335,7 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
     list of Inflation
         In the order of ``string_sets``.
     """
-    from inflation.executor import map_shared
+    from airmat.inflation.executor import map_shared
 
     start = None if start is None else replace(start, mesh=None, levels=())
     out = map_shared(_inflate_task, (mesh, params, strict, start), string_sets, workers=workers,

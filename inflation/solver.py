@@ -3,7 +3,7 @@
 Each iteration assembles the sparse Hessian (exact by default, or with every
 spring block projected PSD; exact pressure term; constant smoothing) on a
 fixed CSR pattern and solves ``(H + mu I) dx = -g`` by a sparse Cholesky
-factorization (:mod:`inflation.cholesky`: CHOLMOD, METIS ordering,
+factorization (:mod:`airmat.inflation.cholesky`: CHOLMOD, METIS ordering,
 symbolic analysis once), which also tells whether ``H + mu I`` is positive
 definite. ``mu`` is a Levenberg–Marquardt trust-region shift: raised until
 the matrix is positive definite (compressed edges and the pressure make H
@@ -30,9 +30,9 @@ import scipy.sparse as sp
 
 from airmat.errors import ConvergenceError
 from airmat.progress import progress
-from inflation.assembly import build_assembler
-from inflation.cholesky import ShiftedCholesky
-from inflation.energy import Model, block_pattern, energy_gradient_volume, hessian_blocks, smoothing_blocks
+from airmat.inflation.assembly import build_assembler
+from airmat.inflation.cholesky import ShiftedCholesky
+from airmat.inflation.energy import Model, block_pattern, energy_gradient_volume, hessian_blocks, smoothing_blocks
 
 __all__ = ["SolveResult", "solve", "rigid_pins", "NewtonSystem"]
 
@@ -126,7 +126,7 @@ def _residual(model: Model, grad_volume: np.ndarray, g_free: np.ndarray) -> floa
 
 
 class NewtonSystem:
-    """Solves ``(H + mu I) dx = -g`` by a sparse Cholesky factorization (:mod:`~inflation.cholesky`),
+    """Solves ``(H + mu I) dx = -g`` by a sparse Cholesky factorization (:mod:`~airmat.inflation.cholesky`),
     with ``mu`` raised until ``H + mu I`` is positive definite.
 
     After a failure ``mu`` jumps to ``max(10 mu, mu_min, hint / 10)``, ``hint``

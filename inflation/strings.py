@@ -3,7 +3,7 @@
 Each string end sits at a point of Ω (``a``, ``b``) on the top or the bottom
 face; it is carried by the face triangle that contains the point, so
 ``x_end = sum_k w_k x_k`` over that triangle's three vertices and the
-string is one six-vertex spring of :class:`inflation.energy.Springs`.
+string is one six-vertex spring of :class:`airmat.inflation.energy.Springs`.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import InputError
-from inflation.energy import Springs
-from inflation.mesh import MattressMesh, locate
+from airmat.inflation.energy import Springs
+from airmat.inflation.mesh import MattressMesh, locate
 
 __all__ = ["StringSet", "attach_strings", "check_resolution", "internal_strings"]
 

@@ -1,6 +1,6 @@
 """The calibration part of the report: κ₁(l/L) with its bands and the specimens, parameters, diagnostics.
 
-Built from a :class:`calib.calibrate.Calibration` in memory (SI), shown in mm and 1/m.
+Built from a :class:`airmat.calib.calibrate.Calibration` in memory (SI), shown in mm and 1/m.
 """
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from airmat.units import M_TO_MM
-from report.page import Part, figure_html
-from report.table import html_table
+from airmat.report.page import Part, figure_html
+from airmat.report.table import html_table
 
 __all__ = ["curve_figure", "calibration_part"]
 
@@ -26,11 +26,11 @@ def curve_figure(cal) -> dict:
     """κ₁ against l/L: posterior median, 68 % and 95 % bands, and the specimens of that L.
 
     Error bars are ``2 sqrt(s_i² + σ²)`` (the specimen's standard error and the scatter σ),
-    as in ``calib.plots.curve_figure``.
+    as in ``airmat.calib.plots.curve_figure``.
 
     Parameters
     ----------
-    cal : calib.calibrate.Calibration
+    cal : airmat.calib.calibrate.Calibration
 
     Returns
     -------
@@ -69,11 +69,11 @@ def calibration_part(cal) -> Part:
 
     Parameters
     ----------
-    cal : calib.calibrate.Calibration
+    cal : airmat.calib.calibrate.Calibration
 
     Returns
     -------
-    report.page.Part
+    airmat.report.page.Part
     """
     p = cal.posterior
     params = html_table(["parameter", "median", "2.5 %", "97.5 %"], [

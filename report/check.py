@@ -1,9 +1,9 @@
 """The check part of the report: Ŝ and the inflated shape overlaid in 3D, the envelope, realized κ per dash.
 
-With a Monte-Carlo (``check.monte_carlo``): Ŝ coloured by each vertex's 95 % deviation
+With a Monte-Carlo (``airmat.check.monte_carlo``): Ŝ coloured by each vertex's 95 % deviation
 quantile over the samples, and a table of the samples' statistics.
 
-Built from a :class:`check.inflation_check.DesignCheck` in memory (SI), shown in mm and 1/m.
+Built from a :class:`airmat.check.inflation_check.DesignCheck` in memory (SI), shown in mm and 1/m.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from html import escape
 import numpy as np
 
 from airmat.units import M_TO_MM
-from report.mesh import display_grid, mesh3d_trace
-from report.page import Part, figure_html
-from report.table import html_table
+from airmat.report.mesh import display_grid, mesh3d_trace
+from airmat.report.page import Part, figure_html
+from airmat.report.table import html_table
 
 __all__ = ["overlay_figure", "curvature_figure", "band_figure", "monte_carlo_table", "check_part"]
 
@@ -44,7 +44,7 @@ def band_figure(check) -> dict:
 
     Parameters
     ----------
-    check : check.inflation_check.DesignCheck
+    check : airmat.check.inflation_check.DesignCheck
         With ``monte_carlo`` (its ``per_vertex_q`` of shape (2, n) on Ŝ's n vertices, m).
 
     Returns
@@ -67,7 +67,7 @@ def band_figure(check) -> dict:
 
 
 def monte_carlo_table(check, *, top: int = 10) -> tuple:
-    """Two HTML tables of ``check.monte_carlo``: its statistics (mm), and the ``top`` most sensitive strings.
+    """Two HTML tables of ``airmat.check.monte_carlo``: its statistics (mm), and the ``top`` most sensitive strings.
 
     Returns
     -------
@@ -141,13 +141,13 @@ def check_part(check, *, with_design_banner: bool = True) -> Part:
 
     Parameters
     ----------
-    check : check.inflation_check.DesignCheck
+    check : airmat.check.inflation_check.DesignCheck
     with_design_banner : bool
         Say UNCALIBRATED at the top for an uncalibrated design (when the page has no design part to say it).
 
     Returns
     -------
-    report.page.Part
+    airmat.report.page.Part
     """
     d = check.design
     banners = []

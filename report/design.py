@@ -1,6 +1,6 @@
 """The design part of the report: the pattern on Ω, the Table-1 figures and verdict, Ŝ in 3D, the cutting list.
 
-Built from a :class:`design.pipeline.DesignResult` in memory (SI), shown in mm and 1/m.
+Built from a :class:`airmat.design.pipeline.DesignResult` in memory (SI), shown in mm and 1/m.
 """
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 
 from airmat.units import M_TO_MM
-from design.constructibility import edge_sigma
-from report.mesh import display_grid, mesh3d_trace
-from report.page import Part, figure_html
-from report.table import html_table
+from airmat.design.constructibility import edge_sigma
+from airmat.report.mesh import display_grid, mesh3d_trace
+from airmat.report.page import Part, figure_html
+from airmat.report.table import html_table
 
 __all__ = ["pattern_figure", "surface_figure", "vertex_sigma", "cutting_rows", "design_part", "CUTTING_COLUMNS"]
 
@@ -41,7 +41,7 @@ def pattern_figure(result) -> dict:
 
     Parameters
     ----------
-    result : design.pipeline.DesignResult
+    result : airmat.design.pipeline.DesignResult
 
     Returns
     -------
@@ -162,11 +162,11 @@ def design_part(result) -> Part:
 
     Parameters
     ----------
-    result : design.pipeline.DesignResult
+    result : airmat.design.pipeline.DesignResult
 
     Returns
     -------
-    report.page.Part
+    airmat.report.page.Part
     """
     from html import escape
 

@@ -1,7 +1,7 @@
 """Meshes for display: a regular grid on Ω decimated to a vertex budget, as plotly ``mesh3d`` traces.
 
 Ŝ and the inflated mid-surface sampled at Ŝ's vertices share the row-major grid
-of :func:`design.mattress.triangulate_mattress`; :func:`display_grid` keeps
+of :func:`airmat.design.mattress.triangulate_mattress`; :func:`display_grid` keeps
 every s-th grid line (and the last) so a large preset stays a few hundred
 kilobytes on the page.
 """

@@ -4,7 +4,7 @@
 ``Calibration``, a ``DesignResult``, a ``DesignCheck``; any subset) and
 :func:`write_report` writes it atomically. Figures are plotly figure
 dictionaries (``{"data": [...], "layout": {...}}``) built by the part modules
-(:mod:`report.calibration`, :mod:`report.design`, :mod:`report.check`) and
+(:mod:`airmat.report.calibration`, :mod:`airmat.report.design`, :mod:`airmat.report.check`) and
 drawn by the inlined plotly.js: the page makes no request to any server.
 Numbers on the page are in millimetres and 1/m.
 """
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.atomic import atomic_write_text
-from report.table import SORT_JS
+from airmat.report.table import SORT_JS
 
 __all__ = ["Part", "figure_html", "plotly_js", "report_html", "write_report", "REPORT_NAME"]
 
@@ -110,9 +110,9 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
 
     Parameters
     ----------
-    calibration : calib.calibrate.Calibration, optional
-    design : design.pipeline.DesignResult, optional
-    check : check.inflation_check.DesignCheck, optional
+    calibration : airmat.calib.calibrate.Calibration, optional
+    design : airmat.design.pipeline.DesignResult, optional
+    check : airmat.check.inflation_check.DesignCheck, optional
     summary : str, optional
         Plain text shown first (the demo's summary).
     title : str
@@ -127,13 +127,13 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
     parts = []
     # each part imports its own stage's packages: a calibration report loads no design code
     if calibration is not None:
-        from report.calibration import calibration_part
+        from airmat.report.calibration import calibration_part
         parts.append(calibration_part(calibration))
     if design is not None:
-        from report.design import design_part
+        from airmat.report.design import design_part
         parts.append(design_part(design))
     if check is not None:
-        from report.check import check_part
+        from airmat.report.check import check_part
         parts.append(check_part(check, with_design_banner=design is None))
     banners = [b for p in parts for b in p.banners]
     head = "".join(f'<div class="banner {k}">{escape(t)}</div>\n' for k, t in dict.fromkeys(banners))

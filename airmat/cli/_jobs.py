@@ -29,6 +29,6 @@ def jobs(args) -> int:
 
 def scheduler(args) -> str | None:
     """The Dask scheduler address: ``--scheduler``, else ``$AIRMAT_SCHEDULER``, else None (local workers)."""
-    from inflation.executor import scheduler_address
+    from airmat.inflation.executor import scheduler_address
 
     return scheduler_address(getattr(args, "scheduler", None))

@@ -66,10 +66,10 @@ def check_resolution(resolution_mm: float, mattresses) -> None:
 
     In its range, and not so fine that the double-layer mesh of one of
     ``mattresses`` (objects with ``width``, ``height`` in m) would exceed the
-    solver's limit (:data:`inflation.mesh.MAX_VERTICES`), which the inflation
+    solver's limit (:data:`airmat.inflation.mesh.MAX_VERTICES`), which the inflation
     itself would only find out after the synthesis, calibration and design.
     """
-    from inflation.mesh import MAX_VERTICES, grid_shape
+    from airmat.inflation.mesh import MAX_VERTICES, grid_shape
 
     check_range("--resolution-mm", resolution_mm)
     for m in mattresses:

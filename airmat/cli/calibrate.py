@@ -51,10 +51,10 @@ def run(args) -> int:
     from airmat.atomic import check_out_dir
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
-    from calib.calibrate import calibrate
-    from calib.plots import plot_corner, plot_curve
-    from calib.calibration_io import summary_text, write_calibration
-    from report.page import write_report
+    from airmat.calib.calibrate import calibrate
+    from airmat.calib.plots import plot_corner, plot_curve
+    from airmat.calib.calibration_io import summary_text, write_calibration
+    from airmat.report.page import write_report
 
     check_out_dir(args.out, inputs=[args.manifest, args.truth])
     truth = _read_truth(args.truth)

@@ -100,18 +100,18 @@ def run(args) -> int:
     from airmat.cli.inflate import check_not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
-    from calib.calibrate import calibrate
-    from calib.calibration_io import write_calibration
-    from calib.plots import plot_corner, plot_curve
-    from check.inflation_check import check
-    from check.refinement import refine
-    from check.report import write_check
-    from data_synthetic.calibration_set import calibration_set
-    from design.calibration_source import from_calibration
-    from design.design_io import write_design
-    from design.pipeline import design
-    from design.presets import preset
-    from report.page import write_report
+    from airmat.calib.calibrate import calibrate
+    from airmat.calib.calibration_io import write_calibration
+    from airmat.calib.plots import plot_corner, plot_curve
+    from airmat.check.inflation_check import check
+    from airmat.check.refinement import refine
+    from airmat.check.report import write_check
+    from airmat.synthetic.calibration_set import calibration_set
+    from airmat.design.calibration_source import from_calibration
+    from airmat.design.design_io import write_design
+    from airmat.design.pipeline import design
+    from airmat.design.presets import preset
+    from airmat.report.page import write_report
 
     # every option is checked before the first step runs: --out, --preset, --points, --resolution-mm,
     # --jobs (--seed, -v, -q by the parser)

@@ -115,9 +115,9 @@ def _positive(args, names):
 
 def _mattress_and_target(args):
     """The mattress, and a function that loads the target (called after the cheap checks)."""
-    from design.presets import preset
-    from design.mattress import Mattress
-    from design.target import load_target
+    from airmat.design.presets import preset
+    from airmat.design.mattress import Mattress
+    from airmat.design.target import load_target
 
     if (args.target is None) == (args.preset is None):
         raise InputError("give either a TARGET file or --preset NAME (not both, not neither)")
@@ -135,7 +135,7 @@ def _mattress_and_target(args):
 
 
 def _params(args):
-    from design.pipeline import DesignParams
+    from airmat.design.pipeline import DesignParams
 
     _positive(args, ["L_mm", "mu1_mm", "mu2_mm", "spacing_mm", "step_mm", "thickness_mm", "k_a1"])
     check_range("--thickness-mm", args.thickness_mm)
@@ -191,7 +191,7 @@ def summary_text(doc: dict, out) -> str:
 def wrote_line(out) -> str:
     """The line naming the files of a published design folder (design.json first)."""
     from airmat.listing import listed
-    from design.design_io import OUTPUT_FILES
+    from airmat.design.design_io import OUTPUT_FILES
 
     return f"  wrote {listed(out, OUTPUT_FILES)} to {out}"
 
@@ -201,12 +201,12 @@ def run(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.progress import progress_enabled
-    from design.calibration_source import PAPER, load_calibration
-    from design.design_io import write_design
-    from design.mattress import check_spacing
-    from design.pipeline import design
-    from design.stripes import check_stripe_params
-    from report.page import write_report
+    from airmat.design.calibration_source import PAPER, load_calibration
+    from airmat.design.design_io import write_design
+    from airmat.design.mattress import check_spacing
+    from airmat.design.pipeline import design
+    from airmat.design.stripes import check_stripe_params
+    from airmat.report.page import write_report
 
     check_out_dir(args.out, inputs=[args.target, args.calibration])
     logging.getLogger("ezdxf").setLevel(logging.WARNING)  # its INFO lines are about DXF internals
@@ -232,7 +232,7 @@ def run(args) -> int:
     failed = design_not_converged(result)
     if args.refine:
         from airmat.units import MM
-        from check.refinement import refine
+        from airmat.check.refinement import refine
 
         refinement = refine(result, resolution=args.refine_resolution_mm * MM,
                             **refine_options(args.refine_defect_corrections, args.refine_regularization,

@@ -49,7 +49,7 @@ def run(args) -> int:
 
 
 def error_to_json(err, scan: str) -> dict:
-    """The JSON record of a refused fit (schemas/fit.schema.json): the error and the exit code it gives."""
+    """The JSON record of a refused fit (airmat/schemas/fit.schema.json): the error and the exit code it gives."""
     from airmat.cli._exit import BAD_INPUT, FAILED
     from airmat.errors import InputError
     from airmat.json_doc import finish
@@ -71,8 +71,8 @@ def _fit(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import check
     from airmat.errors import InputError
-    from calib.cylinder_stability import fit_cylinder_stable
-    from calib.scan_io import read_scan
+    from airmat.calib.cylinder_stability import fit_cylinder_stable
+    from airmat.calib.scan_io import read_scan
 
     if args.noise_mm is not None and not args.noise_mm > 0:
         raise InputError(f"--noise-mm must be > 0, got {args.noise_mm}")
@@ -89,7 +89,7 @@ def _fit(args) -> int:
 
 
 def fit_to_json(fit, scan) -> dict:
-    """The JSON record of a fit (schemas/fit.schema.json): millimetres and 1/m, unit-suffixed names."""
+    """The JSON record of a fit (airmat/schemas/fit.schema.json): millimetres and 1/m, unit-suffixed names."""
     from airmat.json_doc import finish
 
     def mm(x):

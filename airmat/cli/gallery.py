@@ -9,7 +9,7 @@ from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_resolution
 from airmat.errors import InputError
 
-# design.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
+# airmat.design.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
 PRESETS = ("vault1", "saddle", "dome", "vault2", "roof")
 HEADER = ("| size | model | σ (min // avg // max) | abs κ₁ (avg // max) [1/m] | abs κ₂ (avg // max) [1/m] "
           "| strings | constructible | deviation RMS // max [mm] | RMS % diag | lo95 // hi95 RMS [mm] "
@@ -71,13 +71,13 @@ def run(args) -> int:
     from airmat.cli.sigint import staged
     from airmat.json_doc import dumps
     from airmat.units import MM
-    from check.inflation_check import check
-    from check.refinement import refine
-    from check.report import check_dict, write_check
-    from design.calibration_source import load_calibration
-    from design.design_io import report_dict, write_design
-    from design.pipeline import design
-    from design.presets import preset
+    from airmat.check.inflation_check import check
+    from airmat.check.refinement import refine
+    from airmat.check.report import check_dict, write_check
+    from airmat.design.calibration_source import load_calibration
+    from airmat.design.design_io import report_dict, write_design
+    from airmat.design.pipeline import design
+    from airmat.design.presets import preset
 
     # every option is checked before the first preset runs: --out, --presets, --resolution-mm, --jobs,
     # --calibration (--seed, -v, -q by the parser)

@@ -38,11 +38,11 @@ def run(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
-    from check.inflation_check import check
-    from design.design_io import read_design
-    from inflation.model import Parameters
-    from check.report import summary_text, write_check
-    from report.page import write_report
+    from airmat.check.inflation_check import check
+    from airmat.design.design_io import read_design
+    from airmat.inflation.model import Parameters
+    from airmat.check.report import summary_text, write_check
+    from airmat.report.page import write_report
 
     check_out_dir(args.out, inputs=[args.design])
     if not (args.resolution_mm > 0):

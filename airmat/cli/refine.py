@@ -43,9 +43,9 @@ def run(args) -> int:
     from airmat.cli.design import refine_not_converged, wrote_line
     from airmat.cli.sigint import staged
     from airmat.units import MM
-    from check.refinement import check_refinable, refine
-    from design.design_io import read_design, write_design
-    from report.page import write_report
+    from airmat.check.refinement import check_refinable, refine
+    from airmat.design.design_io import read_design, write_design
+    from airmat.report.page import write_report
 
     check_out_dir(args.out, inputs=[args.design])
     if not (args.resolution_mm > 0):
@@ -107,7 +107,7 @@ def refine_lines(b: dict) -> list[str]:
 
 
 def refine_options(corrections: int, alpha: float | None, single_level: bool, reparametrize: int | None = None) -> dict:
-    """The keyword arguments of :func:`check.refinement.refine` that the command-line options set."""
+    """The keyword arguments of :func:`airmat.check.refinement.refine` that the command-line options set."""
     kw = {"corrections": corrections}
     if alpha is not None:
         kw["alpha"] = alpha

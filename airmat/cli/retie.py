@@ -16,9 +16,9 @@ def add_parser(sub, parents):
 def run(args) -> int:
     from airmat.atomic import check_out_dir, staged_dir
     from airmat.listing import listed
-    from design.design_io import read_design
-    from design.export.retie_files import write_retie
-    from design.retie import retie_plan
+    from airmat.design.design_io import read_design
+    from airmat.design.export.retie_files import write_retie
+    from airmat.design.retie import retie_plan
 
     check_out_dir(args.out, inputs=[args.design_a, args.design_b])
     a, b = read_design(args.design_a), read_design(args.design_b)

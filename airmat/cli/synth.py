@@ -38,7 +38,7 @@ def run(args) -> int:
     from airmat.atomic import check_out_dir
     from airmat.cli.sigint import check
     from airmat.units import MM
-    from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
+    from airmat.synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
     check_out_dir(args.outdir)
     check_range("--d-mm", args.d_mm)

@@ -1,7 +1,7 @@
 """`airmat validate --out DIR [--calibration DIR]`: the simulated cylindrical-specimen experiment against Equation 3.
 
 With ``--calibration`` the specimen is simulated at the calibration's L, each real string
-length through the calibrated length map (``check.length_map``), and compared with the
+length through the calibrated length map (``airmat.check.length_map``), and compared with the
 calibrated κ₁ median (Equation 3 with the posterior median's Δ and d).
 """
 
@@ -44,7 +44,7 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
     from airmat.atomic import atomic_write_text
     from airmat.json_doc import dumps
     from airmat.figures import save_png
-    from check.validation import validation_figure
+    from airmat.check.validation import validation_figure
 
     rows = [{"l_over_L": p.l_over_L, "l_sim_over_L": round(p.l_sim_over_L, 5),
              "kappa_polygon_per_m": round(p.kappa_strings, 4),
@@ -97,7 +97,7 @@ def run(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
-    from check.validation import SpecimenLayout, validate_equation3
+    from airmat.check.validation import SpecimenLayout, validate_equation3
 
     check_out_dir(args.out)
     try:
@@ -125,8 +125,8 @@ def run(args) -> int:
     else:
         import numpy as np
 
-        from check.length_map import length_map
-        from design.calibration_source import load_calibration
+        from airmat.check.length_map import length_map
+        from airmat.design.calibration_source import load_calibration
 
         source = load_calibration(args.calibration)
         d = float(np.median(source.d))

@@ -1,8 +1,8 @@
 """Exact principal curvatures of a graph w = h(p, q) from the derivatives of h.
 
-Used by the jet fits of :mod:`design.curvature` (h the fitted polynomial over
+Used by the jet fits of :mod:`airmat.design.curvature` (h the fitted polynomial over
 a vertex's tangent plane) and by the analytic targets of
-:mod:`data_synthetic.targets` (h the surface's height over its crown's plane).
+:mod:`airmat.synthetic.targets` (h the surface's height over its crown's plane).
 Signs (CONTRIBUTING.md): κ > 0 where the surface bends away from the +w
 normal. Lengths in metres, curvature in 1/m.
 """

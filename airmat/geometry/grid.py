@@ -6,14 +6,14 @@ triangles (normal +z) along one of its diagonals; face ``c`` and face
 ``c + (nx - 1)(ny - 1)`` are the two halves of cell ``c = j (nx - 1) + i``.
 The two users pick different diagonals, and the choice changes their results:
 
-- ``"alternating"`` (the designer, :func:`design.mattress.triangulate_mattress`):
+- ``"alternating"`` (the designer, :func:`airmat.design.mattress.triangulate_mattress`):
   the diagonal alternates like a chequerboard, so the mesh has no preferred
   diagonal direction and every interior vertex's neighbours are centrally
   symmetric: the U_A3 umbrella term vanishes on the flat Ω and Ŝ is not
   biased along one diagonal. Any cell count works (the designer's is
   ``ceil(W / spacing)``, often odd: then the mesh is not mirror-symmetric,
   which the designer does not need).
-- ``"union_jack"`` (the simulator, :func:`inflation.mesh.build_mattress_mesh`):
+- ``"union_jack"`` (the simulator, :func:`airmat.inflation.mesh.build_mattress_mesh`):
   every diagonal points toward the centre of Ω, so with an even number of
   cells per side the mesh is exactly symmetric under both mirrors of the
   rectangle and a symmetric string pattern inflates to a symmetric shape.

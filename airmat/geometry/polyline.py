@@ -1,8 +1,8 @@
 """Polylines by arc length: cumulative arc length, points at given arc lengths, midpoints.
 
 A polyline is an array (k, d) of points (m), k >= 1. The stripe tracer
-(design.streamlines, design.stripes), the string lengths
-(design.string_lengths) and the inflation check (check.compare) share these.
+(airmat.design.streamlines, airmat.design.stripes), the string lengths
+(airmat.design.string_lengths) and the inflation check (airmat.check.compare) share these.
 """
 
 from __future__ import annotations

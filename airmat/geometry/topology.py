@@ -1,7 +1,7 @@
 """Topology of a triangle mesh: its edges, its boundary, and the cotangent Laplacian and areas of a flat mesh.
 
-The designer's U_A3 umbrella term (:func:`design.local_global.umbrella_operator`) and
-the simulator's U_B5 smoothing (:func:`inflation.energy.smoothing_matrix`)
+The designer's U_A3 umbrella term (:func:`airmat.design.local_global.umbrella_operator`) and
+the simulator's U_B5 smoothing (:func:`airmat.inflation.energy.smoothing_matrix`)
 are both built from these. Positions in metres.
 """
 

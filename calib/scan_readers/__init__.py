@@ -22,11 +22,11 @@ import importlib
 import os
 from pathlib import Path
 
-from calib.scan_readers.raw import RawCloud
+from airmat.calib.scan_readers.raw import RawCloud
 
 __all__ = ["RawCloud", "READERS", "SUPPORTED_SUFFIXES", "read_cloud"]
 
-#: file suffix -> the module under calib.scan_readers that reads it
+#: file suffix -> the module under airmat.calib.scan_readers that reads it
 READERS = {
     ".ply": "mesh_reader", ".obj": "mesh_reader", ".stl": "mesh_reader", ".off": "mesh_reader",
     ".glb": "mesh_reader", ".gltf": "mesh_reader",
@@ -58,7 +58,7 @@ def read_cloud(path: str | os.PathLike, *, scan_index: int | None = None) -> Raw
     ------
     airmat.errors.InputError
         With ``path`` set, for an unsupported suffix, a file cut short
-        (:mod:`calib.scan_readers.cut_short`) or a file the library cannot parse.
+        (:mod:`airmat.calib.scan_readers.cut_short`) or a file the library cannot parse.
     """
     from airmat.errors import InputError
 
@@ -69,8 +69,8 @@ def read_cloud(path: str | os.PathLike, *, scan_index: int | None = None) -> Raw
                          f"use one of {', '.join(SUPPORTED_SUFFIXES)}", path=path)
     if scan_index is not None and name != "e57_reader" and scan_index != 0:
         raise InputError(f"--scan-index {scan_index}: a {path.suffix} file holds one scan", path=path)
-    from calib.scan_readers.cut_short import check_complete
+    from airmat.calib.scan_readers.cut_short import check_complete
 
     check_complete(path)   # a file cut short would give part of the scan, or a library's message
-    module = importlib.import_module(f"calib.scan_readers.{name}")
+    module = importlib.import_module(f"airmat.calib.scan_readers.{name}")
     return module.read(path, scan_index=scan_index)

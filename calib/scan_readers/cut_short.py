@@ -8,7 +8,7 @@ unexpected length!", "buffer size must be a multiple of element size").
 These checks run before them, on the file's bytes, one per format:
 
 - PLY: the counts of its header against the body
-  (:func:`calib.scan_readers.ply_header.check_ply_complete`);
+  (:func:`airmat.calib.scan_readers.ply_header.check_ply_complete`);
 - OFF: the vertex and face counts of its header against its rows, and the
   values of its last row (ascii PCD: the reader counts its rows against POINTS);
 - binary STL: the triangle count of its header against the file size; ASCII
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.ply_header import check_ply_complete
+from airmat.calib.scan_readers.ply_header import check_ply_complete
 
 __all__ = ["check_complete", "complete_binary_stl"]
 
@@ -162,7 +162,7 @@ def _check_columns(path: Path) -> None:
 
 def _check_pcd(path: Path) -> None:
     """An ascii body must end with a line break; its rows against POINTS are counted by the reader
-    (:mod:`calib.scan_readers.pcd_reader`: polars' rows, or the line breaks before open3d reads it)."""
+    (:mod:`airmat.calib.scan_readers.pcd_reader`: polars' rows, or the line breaks before open3d reads it)."""
     with open(path, "rb") as fh:
         head = fh.read(1 << 14)
     if re.search(rb"(?m)^DATA[ \t]+ascii", head):

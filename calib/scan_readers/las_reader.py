@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.raw import RawCloud, library_message
+from airmat.calib.scan_readers.raw import RawCloud, library_message
 
 __all__ = ["read"]
 

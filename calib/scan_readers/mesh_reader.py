@@ -1,6 +1,6 @@
 """PLY (points or mesh, any encoding), OBJ, STL, OFF, GLB and glTF through trimesh.
 
-Binary PLY point clouds are read with numpy (:mod:`calib.scan_readers.ply_points`).
+Binary PLY point clouds are read with numpy (:mod:`airmat.calib.scan_readers.ply_points`).
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.obj_indices import check_obj_indices
-from calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
-from calib.scan_readers.ply_points import read_binary_points
-from calib.scan_readers.raw import RawCloud, library_message
+from airmat.calib.scan_readers.obj_indices import check_obj_indices
+from airmat.calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
+from airmat.calib.scan_readers.ply_points import read_binary_points
+from airmat.calib.scan_readers.raw import RawCloud, library_message
 
 __all__ = ["read"]
 

@@ -1,7 +1,7 @@
 """PCD (PCL's format: ascii, binary, binary_compressed; organized clouds with NaN).
 
 An ascii PCD is read with polars' CSV reader
-(:func:`calib.scan_readers.text_reader.read_columns_fast`, several times
+(:func:`airmat.calib.scan_readers.text_reader.read_columns_fast`, several times
 faster than open3d's), a binary one with ``np.fromfile`` and a structured
 dtype built from the header (FIELDS, SIZE, TYPE, COUNT), a binary_compressed
 one by python-lzf (liblzf; the optional ``fast`` extra) and numpy: its body
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.raw import RawCloud
+from airmat.calib.scan_readers.raw import RawCloud
 
 __all__ = ["read"]
 
@@ -69,7 +69,7 @@ def _read_open3d(path: Path) -> np.ndarray:
 
 def _read_ascii(path: Path, header: dict) -> np.ndarray | None:
     """x, y, z of an ascii body as written (open3d reads the text in double too), or None."""
-    from calib.scan_readers.text_reader import read_columns_fast
+    from airmat.calib.scan_readers.text_reader import read_columns_fast
 
     fields = header["FIELDS"]
     counts = header.get("COUNT", ["1"] * len(fields))

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.ply_points import PLY_TYPES, xyz_names
+from airmat.calib.scan_readers.ply_points import PLY_TYPES, xyz_names
 
 __all__ = ["check_ply_complete", "ply_elements", "ply_vertex_float32", "ply_vertex_names", "ply_xyz_fields",
            "ply_renamed_xyz"]

@@ -4,7 +4,7 @@ A scanner's binary PLY is one ``vertex`` element of scalar properties
 (``x y z`` and often colours, normals, intensity): its body is a packed
 array that ``np.fromfile`` reads in one call with a structured dtype built
 from the header. Files this does not cover (ascii, faces, list properties)
-return None and go to trimesh (:mod:`calib.scan_readers.mesh_reader`).
+return None and go to trimesh (:mod:`airmat.calib.scan_readers.mesh_reader`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.raw import RawCloud
+from airmat.calib.scan_readers.raw import RawCloud
 
 __all__ = ["read_binary_points", "PLY_TYPES", "xyz_names"]
 
@@ -54,7 +54,7 @@ def read_binary_points(path: Path) -> RawCloud | None:
     ----------
     path : Path
         A PLY file (its header already checked by
-        :func:`calib.scan_readers.ply_header.check_ply_complete`).
+        :func:`airmat.calib.scan_readers.ply_header.check_ply_complete`).
 
     Returns
     -------

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from calib.scan_readers.raw import RawCloud
+from airmat.calib.scan_readers.raw import RawCloud
 
 __all__ = ["read", "read_columns_fast"]
 

@@ -27,7 +27,7 @@ def node_label(node) -> str:
 
 
 def write_cutting_list(path, doc: dict) -> None:
-    """Write ``cutting_list.csv`` from a design document (see :mod:`design.export.design_json`)."""
+    """Write ``cutting_list.csv`` from a design document (see :mod:`airmat.design.export.design_json`)."""
     rows = sorted(doc["dashes"], key=lambda d: (d["side"], d["family"], d["id"]))
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")

@@ -2,7 +2,7 @@
 
 Layout (all lengths in mm on Ω = [0, W] × [0, H], top face seen from above)::
 
-    schema_version, airmat_version, name, seed, uncalibrated   (schemas/design.schema.json)
+    schema_version, airmat_version, name, seed, uncalibrated   (airmat/schemas/design.schema.json)
     mattress      {width_mm, height_mm, thickness_mm}
     calibration   {source, uncalibrated, label, L_mm, delta_mm {median, lo95, hi95}, d_mm {...}, n_samples}
     parameters    {L_mm, mu1_mm, mu2_mm, margin_mm, ...}        (what was used)
@@ -11,12 +11,12 @@ Layout (all lengths in mm on Ω = [0, W] × [0, H], top face seen from above)::
     summary       {strings {top {k1, k2}, bottom {k1, k2}}, dashes {k1, k2}, no_string {k1, k2}, notes,
                    tie_grid {grid_mm, end_shift_mm {mean, max}, dL_mm {mean, max_abs}},
                    coverage {k1, k2: {need_points, gap_p95_mm, gap_max_mm, interior_gap_max_mm,
-                   edge_band_max_mm, weak_band_max_mm, limit_mm, covered}} (design.coverage; null when not known)}
+                   edge_band_max_mm, weak_band_max_mm, limit_mm, covered}} (airmat.design.coverage; null when not known)}
     dashes        [{id, family, side, polyline_mm, a_mm, b_mm, L_mm, chord_mm, kappa_per_m,
                     l_mm {median, lo95, hi95}, flags, a_node, b_node}]
 
     refine        {converged, iterations, deviation_before, deviation_after, ..., open_loop_dashes}
-                  (a refined design only: check.refinement; ``open_loop_dashes`` are the strings before
+                  (a refined design only: airmat.check.refinement; ``open_loop_dashes`` are the strings before
                   the refinement, dashes entries without polyline_mm, which its inflations start from)
 
 ``a_node``/``b_node`` are the grid nodes the ends are tied to, ``{row, col, u_mm, v_mm}``

@@ -137,7 +137,7 @@ def _set_extents(dxf, msp) -> None:
 
 
 def write_dxf(path, doc: dict) -> None:
-    """Write ``pattern.dxf`` from a design document (see :mod:`design.export.design_json`)."""
+    """Write ``pattern.dxf`` from a design document (see :mod:`airmat.design.export.design_json`)."""
     import ezdxf  # here, not at the top: importing the designer must not load ezdxf
     from ezdxf import units
 

@@ -2,7 +2,7 @@
 
 The drawing (both faces, the bottom one seen from below, strings with ids,
 lengths and tie nodes, the 100 mm scale bar) is laid out as in
-:mod:`design.export.svg` and cut into tiles of the printable area of a
+:mod:`airmat.design.export.svg` and cut into tiles of the printable area of a
 portrait page (10 mm margins); neighbouring tiles overlap by 20 mm so that
 pages can be trimmed and taped. Each page has crop marks at the corners of its
 tile and a footer with its page number, its row and column in the grid of
@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from airmat.atomic import atomic_write_bytes
-from design.export.svg import COLOURS, LAYOUT, NODE_FONT, SCALE_BAR_MM, node_label_places, page_size, svg_transform
+from airmat.design.export.svg import COLOURS, LAYOUT, NODE_FONT, SCALE_BAR_MM, node_label_places, page_size, svg_transform
 
 __all__ = ["write_pdf", "pdf_bytes", "tile_grid", "PAPER_MM", "MARGIN_MM", "OVERLAP_MM"]
 
@@ -93,7 +93,7 @@ def pdf_bytes(doc: dict, paper: str = "A4") -> bytes:
     Parameters
     ----------
     doc : dict
-        The design document (:mod:`design.export.design_json`, mm).
+        The design document (:mod:`airmat.design.export.design_json`, mm).
     paper : {"A4", "A3"}
     """
     from matplotlib.backends.backend_pdf import PdfPages

@@ -237,7 +237,7 @@ def preview_figure(doc: dict, xyz, uv, faces):
     Parameters
     ----------
     doc : dict
-        The design document (``design.json``, millimetres; see :mod:`design.export.design_json`).
+        The design document (``design.json``, millimetres; see :mod:`airmat.design.export.design_json`).
     xyz : ndarray of shape (n, 3)
         Vertices of Ŝ (m).
     uv : ndarray of shape (n, 2)

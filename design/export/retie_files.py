@@ -1,4 +1,4 @@
-"""Files of a re-tie list (:mod:`design.retie`): ``retie.json``, ``retie.csv``, ``retie.png`` (mm).
+"""Files of a re-tie list (:mod:`airmat.design.retie`): ``retie.json``, ``retie.csv``, ``retie.png`` (mm).
 
 ``retie.csv`` has one row per string, in workshop order (keep, retie, remove,
 add): ``action, face, id_a, id_b, nodes_a, nodes_b, l_a_mm, l_b_mm, move_mm``;

@@ -24,7 +24,7 @@ rhino3dm adds mesh vertices one by one (it has no bulk setter); the file is
 written to memory and published with :mod:`airmat.atomic`.
 
 Layer and object GUIDs are derived from their names (uuid5), so the same design
-gives the same model, and :mod:`design.export.rhino_stable` removes what
+gives the same model, and :mod:`airmat.design.export.rhino_stable` removes what
 OpenNURBS stamps from the run (the time, the user name, the file name): the same
 design gives the same bytes.
 """
@@ -38,7 +38,7 @@ import numpy as np
 from airmat.atomic import atomic_write_bytes
 from airmat.errors import InputError
 from airmat.units import M_TO_MM
-from design.export.rhino_stable import stable_3dm_bytes
+from airmat.design.export.rhino_stable import stable_3dm_bytes
 
 __all__ = ["lift_to_surface", "lift_to_face", "band_colours", "rhino_model", "write_3dm", "STRING_KEYS",
            "FACE_FAMILIES"]
@@ -229,7 +229,7 @@ def lift_to_face(points_uv: np.ndarray, sign: np.ndarray, xyz: np.ndarray, uv: n
     ...              np.array([[0, 1, 2]]), 0.1).round(3).tolist()
     [[0.2, 0.2, 0.05], [0.2, 0.2, -0.05]]
     """
-    from design.curvature import vertex_normals
+    from airmat.design.curvature import vertex_normals
 
     sign = np.asarray(sign, float).reshape(-1)
     base = lift_to_surface(points_uv, xyz, uv, faces)
@@ -250,7 +250,7 @@ def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *
     Parameters
     ----------
     doc : dict
-        The design document (:func:`design.export.design_json.design_document`, mm).
+        The design document (:func:`airmat.design.export.design_json.design_document`, mm).
     xyz : ndarray of shape (n, 3)
         Ŝ's vertices (m).
     uv : ndarray of shape (n, 2)

@@ -13,7 +13,7 @@ The grid node each end is tied to (``R12C3``: row 12, column 3 of the tie grid)
 is printed beside its end, on the other side of the string from the id, running
 inward along the string (:func:`node_label_places`), so it covers neither its
 string nor a neighbour chained to the same node. ``pattern_A4.pdf`` /
-``pattern_A3.pdf`` tile this drawing over printer pages (:mod:`design.export.pdf`).
+``pattern_A3.pdf`` tile this drawing over printer pages (:mod:`airmat.design.export.pdf`).
 """
 
 from __future__ import annotations
@@ -166,7 +166,7 @@ def _scale_bar(svg, x, y):
 
 
 def write_svg(path, doc: dict) -> None:
-    """Write ``pattern.svg`` from a design document (see :mod:`design.export.design_json`).
+    """Write ``pattern.svg`` from a design document (see :mod:`airmat.design.export.design_json`).
 
     The page is ``2 W + gap + 2 pad`` by ``H + title + caption + pad`` millimetres,
     ``width``/``height`` in mm and the ``viewBox`` in mm, so it prints at 1:1.

@@ -13,12 +13,12 @@ def test_paper_values():
 
 
 def test_users_take_the_shared_values():
-    from calib.model import kappa_max
-    from design.calibration_source import PAPER
-    from design.constructibility import PAPER_KAPPA_MAX
-    from design.mattress import Mattress
-    from design.presets import LARGE, SMALL
-    from design.stripes import StripeParams
+    from airmat.calib.model import kappa_max
+    from airmat.design.calibration_source import PAPER
+    from airmat.design.constructibility import PAPER_KAPPA_MAX
+    from airmat.design.mattress import Mattress
+    from airmat.design.presets import LARGE, SMALL
+    from airmat.design.stripes import StripeParams
 
     assert PAPER == {"L": PAPER_L, "delta": PAPER_DELTA, "d": PAPER_D, "delta_sd": PAPER_DELTA_SD,
                      "d_sd": PAPER_D_SD}

@@ -45,8 +45,8 @@ def test_no_module_imports_another_modules_private_names():
     assert bad == []
 
 
-@pytest.mark.parametrize("module, forbidden", [("data_synthetic.targets", "design"),
-                                               ("design.presets", "data_synthetic")])
+@pytest.mark.parametrize("module, forbidden", [("airmat.synthetic.targets", "design"),
+                                               ("airmat.design.presets", "data_synthetic")])
 def test_importing_does_not_load_the_other_package(module, forbidden):
     code = (f"import sys, {module}; "
             f"print(sorted(m for m in sys.modules if m == {forbidden!r} or m.startswith({forbidden + '.'!r})))")
@@ -82,5 +82,5 @@ def test_imports_point_one_way():
 
 def test_the_direction_check_finds_a_wrong_import(tmp_path):
     f = tmp_path / "m.py"
-    f.write_text("import numpy\nfrom calib.model import kappa1\n\ndef f():\n    import check.compare\n")
+    f.write_text("import numpy\nfrom airmat.calib.model import kappa1\n\ndef f():\n    import airmat.check.compare\n")
     assert _imported_packages(f) == {"calib", "check"}

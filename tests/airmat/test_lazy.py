@@ -14,7 +14,8 @@ import pytest
 from airmat.lazy import attach
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("calib", "design", "design.export", "inflation", "check", "data_synthetic", "report")
+PACKAGES = ("airmat.calib", "airmat.design", "airmat.design.export", "airmat.inflation", "airmat.check",
+            "airmat.synthetic", "airmat.report")
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -35,10 +36,10 @@ def test_every_public_name_resolves_and_is_listed(package):
 
 def test_star_import_and_from_import():
     ns = {}
-    exec("from calib import *", ns)
-    import calib
-    from calib import kappa1
-    from calib.model import kappa1 as direct
+    exec("from airmat.calib import *", ns)
+    import airmat.calib as calib
+    from airmat.calib import kappa1
+    from airmat.calib.model import kappa1 as direct
 
     assert kappa1 is direct and ns["kappa1"] is direct
     assert set(calib.__all__) <= set(ns)
@@ -48,15 +49,15 @@ def test_a_public_name_that_is_also_a_submodule_stays_the_function_whichever_is_
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     code = """
 import json, types
-import calib.calibrate                     # the submodule first: Python binds it on the package
-import calib
-from calib import calibrate
-print(json.dumps([isinstance(calib.calibrate, types.FunctionType), calibrate is calib.calibrate,
-                  calib.calibrate.__module__]))
+import airmat.calib.calibrate                     # the submodule first: Python binds it on the package
+import airmat.calib
+from airmat.calib import calibrate
+print(json.dumps([isinstance(airmat.calib.calibrate, types.FunctionType), calibrate is airmat.calib.calibrate,
+                  airmat.calib.calibrate.__module__]))
 """
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True,
                          check=True).stdout
-    assert json.loads(out) == [True, True, "calib.calibrate"]
+    assert json.loads(out) == [True, True, "airmat.calib.calibrate"]
 
 
 def test_attach_refuses_a_name_listed_twice():
@@ -82,7 +83,7 @@ def test_open3d_comes_without_its_visualization_until_that_is_used():
     got = _fresh("""
 import json, sys, tempfile, os
 import numpy as np
-from design.closest_point import MeshProjector
+from airmat.design.closest_point import MeshProjector
 p = MeshProjector(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
 point = p.closest(np.array([[0.2, 0.2, 1.0]])).points.round(6).tolist()
 from airmat.lazy import import_open3d

@@ -9,24 +9,24 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from data_synthetic.ply_write import write_ply
-from data_synthetic.specimen_scan import specimen_scan
+from airmat.synthetic.ply_write import write_ply
+from airmat.synthetic.specimen_scan import specimen_scan
 
 ROOT = Path(__file__).resolve().parents[2]
 
 #: top-level packages `airmat fit` and `airmat calibrate` must never load
-NOT_FOR_CALIBRATION = ("design", "inflation", "check", "data_synthetic", "ezdxf", "cvxopt", "igl", "pymetis")
+NOT_FOR_CALIBRATION = ("airmat.design", "airmat.inflation", "airmat.check", "airmat.synthetic", "ezdxf", "cvxopt", "igl", "pymetis")
 
 _LOADED = """
 import json, sys
 def loaded():
-    return sorted({name.split(".")[0] for name in sys.modules})
+    return sorted({".".join(n.split(".")[:2]) if n.startswith("airmat.") else n.split(".")[0] for n in sys.modules})
 """
 
 
 def _fresh(code: str) -> dict:
-    """Run ``code`` in a fresh interpreter with this tree first on the path; return its JSON output."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    """Run ``code`` in a fresh interpreter (the installed airmat); return its JSON output."""
+    env = dict(os.environ)
     out = subprocess.run([sys.executable, "-c", _LOADED + code], env=env, cwd=ROOT, capture_output=True,
                          text=True, timeout=300)
     assert out.returncode == 0, out.stderr
@@ -40,7 +40,7 @@ build_parser().format_help()
 print(json.dumps(loaded()))
 """)
     assert "airmat" in got
-    for name in ("numpy", "scipy", "calib", "matplotlib", *NOT_FOR_CALIBRATION):
+    for name in ("numpy", "scipy", "airmat.calib", "matplotlib", *NOT_FOR_CALIBRATION):
         assert name not in got
 
 
@@ -48,12 +48,12 @@ def test_the_fit_and_calibrate_paths_import_nothing_of_the_designer_or_the_plots
     got = _fresh("""
 from airmat.cli import build_parser
 build_parser()
-import airmat.cli.fit, airmat.cli.calibrate, calib.cylinder_fit, calib.scan_io
-import calib.calibrate, calib.calibration_io, calib.plots
-from calib import calibrate, fit_cylinder, kappa1
+import airmat.cli.fit, airmat.cli.calibrate, airmat.calib.cylinder_fit, airmat.calib.scan_io
+import airmat.calib.calibrate, airmat.calib.calibration_io, airmat.calib.plots
+from airmat.calib import calibrate, fit_cylinder, kappa1
 print(json.dumps(loaded()))
 """)
-    assert "calib" in got and "numpy" in got      # the imports did run
+    assert "airmat.calib" in got and "numpy" in got      # the imports did run
     for name in ("matplotlib", "emcee", "corner", *NOT_FOR_CALIBRATION):
         assert name not in got, name
 
@@ -83,10 +83,10 @@ def test_calibrate_loads_matplotlib_only_to_write_a_plot(tmp_path):
 
     assert main(["synth", str(tmp_path / "set"), "--points", "20000", "--l-over-L", "0.3,0.5,0.7", "--seed", "4", "-q"]) == 0
     got = _fresh(f"""
-from calib.calibrate import calibrate
+from airmat.calib.calibrate import calibrate
 cal = calibrate({str(tmp_path / "set" / "manifest.csv")!r}, max_steps=300, seed=0)
 before = loaded()
-from calib.plots import plot_curve
+from airmat.calib.plots import plot_curve
 plot_curve(cal, {str(tmp_path / "curve.png")!r})
 print(json.dumps({{"before": before, "after": loaded()}}))
 """)
@@ -98,17 +98,17 @@ print(json.dumps({{"before": before, "after": loaded()}}))
 
 
 @pytest.mark.parametrize("module, absent", [
-    ("inflation.mesh", ("ezdxf", "cvxopt", "igl", "design", "check", "matplotlib")),
-    ("inflation.solver", ("ezdxf", "cvxopt", "design", "check", "matplotlib")),
-    ("design.mattress", ("ezdxf", "cvxopt", "inflation", "check", "matplotlib", "trimesh", "scipy")),
-    ("design.pipeline", ("ezdxf", "cvxopt", "inflation", "check", "matplotlib")),
-    ("check.compare", ("ezdxf", "cvxopt", "design", "matplotlib")),
-    ("design", ("numpy", "ezdxf", "cvxopt", "matplotlib")),
-    ("calib", ("numpy",)),
+    ("airmat.inflation.mesh", ("ezdxf", "cvxopt", "igl", "airmat.design", "airmat.check", "matplotlib")),
+    ("airmat.inflation.solver", ("ezdxf", "cvxopt", "airmat.design", "airmat.check", "matplotlib")),
+    ("airmat.design.mattress", ("ezdxf", "cvxopt", "airmat.inflation", "airmat.check", "matplotlib", "trimesh", "scipy")),
+    ("airmat.design.pipeline", ("ezdxf", "cvxopt", "airmat.inflation", "airmat.check", "matplotlib")),
+    ("airmat.check.compare", ("ezdxf", "cvxopt", "airmat.design", "matplotlib")),
+    ("airmat.design", ("numpy", "ezdxf", "cvxopt", "matplotlib")),
+    ("airmat.calib", ("numpy",)),
 ])
 def test_importing_a_module_loads_none_of_the_heavy_libraries_it_does_not_use(module, absent):
     got = _fresh(f"import {module}\nprint(json.dumps(loaded()))")
-    assert module.split(".")[0] in got
+    assert ".".join(module.split(".")[:2]) in got
     for name in absent:
         assert name not in got, name
 
@@ -116,7 +116,7 @@ def test_importing_a_module_loads_none_of_the_heavy_libraries_it_does_not_use(mo
 def test_a_factorization_still_loads_cvxopt_on_demand():
     got = _fresh("""
 import scipy.sparse as sp
-from inflation.cholesky import ShiftedCholesky
+from airmat.inflation.cholesky import ShiftedCholesky
 before = loaded()
 c = ShiftedCholesky(sp.csr_matrix([[2.0, -1.0], [-1.0, 2.0]]))
 print(json.dumps({"before": before, "after": loaded(), "ok": c.factor(sp.csr_matrix([[2.0, -1.0], [-1.0, 2.0]]))}))
@@ -125,7 +125,7 @@ print(json.dumps({"before": before, "after": loaded(), "ok": c.factor(sp.csr_mat
 
 
 def test_a_mattress_mesh_is_still_built_with_its_edges():
-    from inflation.mesh import build_mattress_mesh
+    from airmat.inflation.mesh import build_mattress_mesh
 
     m = build_mattress_mesh(0.8, 0.4, 0.07, resolution=0.1)
     e = np.sort(m.edges, axis=1)

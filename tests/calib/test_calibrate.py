@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from calib.calibrate import Calibration, SpecimenFit, _reference_face, calibrate
-from calib.curve import kappa_curve
-from calib.manifest import Manifest
-from calib.model import kappa1
-from calib.plots import corner_figure, curve_figure, plot_corner, plot_curve
-from calib.posterior import sample_posterior, specimen_data
-from calib.calibration_io import calibration_dict, summary_text, write_calibration
-from data_synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
+from airmat.calib.calibrate import Calibration, SpecimenFit, _reference_face, calibrate
+from airmat.calib.curve import kappa_curve
+from airmat.calib.manifest import Manifest
+from airmat.calib.model import kappa1
+from airmat.calib.plots import corner_figure, curve_figure, plot_corner, plot_curve
+from airmat.calib.posterior import sample_posterior, specimen_data
+from airmat.calib.calibration_io import calibration_dict, summary_text, write_calibration
+from airmat.synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
 DELTA, D, L = 0.018, 0.070, 0.300
 
@@ -56,7 +56,7 @@ def test_same_seed_same_calibration(synthetic_set, end_to_end):
 
 
 def test_not_a_cylinder_names_the_scan(tmp_path):
-    from data_synthetic.ply_write import write_ply
+    from airmat.synthetic.ply_write import write_ply
 
     rng = np.random.default_rng(0)
     for name in ("a.ply", "b.ply", "c.ply"):

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from calib.calibrate import Calibration, SpecimenFit
-from calib.calibration_io import read_calibration, write_calibration
-from calib.curve import kappa_curve
-from calib.manifest import Manifest
-from calib.posterior import ParamSummary, Posterior
-from design.calibration_source import from_calibration, load_calibration
+from airmat.calib.calibrate import Calibration, SpecimenFit
+from airmat.calib.calibration_io import read_calibration, write_calibration
+from airmat.calib.curve import kappa_curve
+from airmat.calib.manifest import Manifest
+from airmat.calib.posterior import ParamSummary, Posterior
+from airmat.design.calibration_source import from_calibration, load_calibration
 
 
 def _calibration(tmp_path, n=3000, seed=1):

@@ -1,12 +1,12 @@
-"""A mesh or scan file cut short is refused before a library reads part of it (calib.scan_readers.cut_short)."""
+"""A mesh or scan file cut short is refused before a library reads part of it (airmat.calib.scan_readers.cut_short)."""
 
 import numpy as np
 import pytest
 import trimesh
 
 from airmat.errors import InputError
-from calib.scan_readers.cut_short import check_complete
-from design.target import load_target
+from airmat.calib.scan_readers.cut_short import check_complete
+from airmat.design.target import load_target
 
 #: (suffix, trimesh export options)
 FORMATS = [("ply", {"encoding": "binary"}), ("ply", {"encoding": "ascii"}), ("off", {}),
@@ -97,7 +97,7 @@ def test_an_obj_without_a_final_line_break_is_refused_with_what_to_do(tmp_path):
 
 
 def test_a_scan_cut_short_is_refused_by_the_scan_reader(tmp_path):
-    from calib.scan_io import read_scan
+    from airmat.calib.scan_io import read_scan
 
     whole = _write(tmp_path, "obj", {}).read_bytes()
     path = tmp_path / "scan.obj"
@@ -134,7 +134,7 @@ def _write_cloud(tmp_path, suffix):
 @pytest.mark.parametrize("suffix", ["xyz", "pcd", "las"])
 @pytest.mark.parametrize("keep", [0.3, 0.98, -2])
 def test_a_point_cloud_cut_short_is_refused(tmp_path, suffix, keep):
-    from calib.scan_io import read_scan
+    from airmat.calib.scan_io import read_scan
 
     whole = _write_cloud(tmp_path, suffix)
     assert len(read_scan(whole).points) == 2000
@@ -157,7 +157,7 @@ def test_an_ascii_pcd_cut_at_a_line_break_is_refused_by_its_count(tmp_path, sep)
     data = data[:body] + data[body:].replace(b" ", sep.encode())
     path = tmp_path / "cut.pcd"
     path.write_bytes(data[:data.rindex(b"\n", 0, len(data) // 2) + 1])
-    from calib.scan_io import read_scan
+    from airmat.calib.scan_io import read_scan
 
     with pytest.raises(InputError, match=r"(read \d+ of 2000 points|declares 2000 points, the file has \d+ rows)"):
         read_scan(path)

@@ -6,12 +6,12 @@ from scipy.optimize._numdiff import approx_derivative
 from scipy.spatial.transform import Rotation
 
 from airmat.errors import InputError, NotACylinderError
-from calib.cylinder_fit import fit_cylinder
-from calib.cylinder_irls import polish
-from calib.cylinder_lsq import CylinderFrame, CylinderProblem, residuals
-from calib.groove_bands import groove_bands
-from calib.support_plane import find_support_planes
-from data_synthetic.specimen_scan import FLOOR, SPECIMEN, specimen_scan
+from airmat.calib.cylinder_fit import fit_cylinder
+from airmat.calib.cylinder_irls import polish
+from airmat.calib.cylinder_lsq import CylinderFrame, CylinderProblem, residuals
+from airmat.calib.groove_bands import groove_bands
+from airmat.calib.support_plane import find_support_planes
+from airmat.synthetic.specimen_scan import FLOOR, SPECIMEN, specimen_scan
 
 N = 50_000
 
@@ -228,8 +228,8 @@ def test_groove_bands_find_a_groove_and_nothing_on_a_clean_face():
 
 
 def test_support_planes_floor_is_removed_flat_top_is_kept():
-    from calib.voxel_grid import voxel_cloud
-    from calib.point_normals import normals_knn
+    from airmat.calib.voxel_grid import voxel_cloud
+    from airmat.calib.point_normals import normals_knn
 
     s = specimen_scan(0.0, n_points=40_000, seed=81)
     down = voxel_cloud(s.points, 0.015).points
@@ -243,7 +243,7 @@ def test_support_planes_floor_is_removed_flat_top_is_kept():
 def test_normals_match_open3d_up_to_sign():
     import open3d as o3d
 
-    from calib.point_normals import normals_knn
+    from airmat.calib.point_normals import normals_knn
 
     s = specimen_scan(4.0, n_points=20_000, seed=5)
     pts = s.points[:5000]
@@ -256,7 +256,7 @@ def test_normals_match_open3d_up_to_sign():
 
 
 def test_plane_ransac_is_reproducible_and_finds_the_floor():
-    from calib.plane_ransac import segment_plane
+    from airmat.calib.plane_ransac import segment_plane
 
     s = specimen_scan(5.0, n_points=30_000, seed=9)
     a = segment_plane(s.points, 4 * s.noise, 500, seed=3)
@@ -269,7 +269,7 @@ def test_plane_ransac_is_reproducible_and_finds_the_floor():
 @pytest.mark.slow
 def test_same_seed_same_fit_on_a_million_points():
     """Reproducibility: two calls in one process give the same numbers, to the bit."""
-    from calib.cylinder_stability import fit_cylinder_stable
+    from airmat.calib.cylinder_stability import fit_cylinder_stable
 
     s = specimen_scan(5.0, n_points=1_000_000, arc_deg=90.0, seed=3)
     for fit in (fit_cylinder, fit_cylinder_stable):

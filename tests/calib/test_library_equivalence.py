@@ -1,6 +1,6 @@
 """The fit's numpy-only pieces against the libraries they stand in for (scipy, scikit-image).
 
-``calib.circle_ransac`` and ``calib.cylinder_lsq.refine`` replace
+``airmat.calib.circle_ransac`` and ``airmat.calib.cylinder_lsq.refine`` replace
 ``skimage.measure.ransac(CircleModel)`` and ``scipy.optimize.least_squares``
 on the fit's path only because importing those libraries costs more than the
 whole fit (the scan issue's start-up goal); these tests hold them to the
@@ -10,8 +10,8 @@ libraries' answers on the same problems.
 import numpy as np
 import pytest
 
-from calib.circle_ransac import circle_ransac
-from calib.cylinder_lsq import CylinderFrame, CylinderProblem, refine, rotation_matrix
+from airmat.calib.circle_ransac import circle_ransac
+from airmat.calib.cylinder_lsq import CylinderFrame, CylinderProblem, refine, rotation_matrix
 
 
 def _arc_with_outliers(seed, n=400, outliers=120, radius=1.3, noise=0.004):
@@ -52,8 +52,8 @@ def test_refine_reaches_the_optimum_of_scipy_least_squares(loss):
     same cylinder to far below its standard error (the cost is flat there: 1e-6 in kappa)."""
     from scipy.optimize import least_squares
 
-    from calib.cylinder_irls import robust_cost
-    from calib.cylinder_lsq import residuals
+    from airmat.calib.cylinder_irls import robust_cost
+    from airmat.calib.cylinder_lsq import residuals
 
     rng = np.random.default_rng(7)
     R, n = 0.25, 3000

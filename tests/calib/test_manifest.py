@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from calib.manifest import read_manifest, write_manifest_text
+from airmat.calib.manifest import read_manifest, write_manifest_text
 
 
 def make(tmp_path, text, scans=("a.ply", "b.ply", "c.ply", "d.ply")):

@@ -1,4 +1,4 @@
-"""Equation 3 (calib.model) against a bracketed scalar root solve and its own inverse."""
+"""Equation 3 (airmat.calib.model) against a bracketed scalar root solve and its own inverse."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from hypothesis import assume, given, settings, strategies as st
 from scipy.optimize import brentq
 
 from airmat.errors import InputError
-from calib.model import bend_angle, flat_length, kappa1, kappa_max, string_length
+from airmat.calib.model import bend_angle, flat_length, kappa1, kappa_max, string_length
 
 PAPER = dict(L=0.300, delta=0.018, d=0.070)
 
@@ -113,7 +113,7 @@ def test_negative_inputs_raise():
 
 
 def test_polygon_side_is_the_span_less_the_wrinkles_and_gives_kappa1():
-    from calib.model import bend_angle, kappa1, polygon_side
+    from airmat.calib.model import bend_angle, kappa1, polygon_side
 
     L, delta, d = 0.3, 0.01, 0.07
     l = np.array([0.05, 0.12, 0.2, 0.27, 0.28, 0.35])          # the last two flat: l + 2 delta >= L

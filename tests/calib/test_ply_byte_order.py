@@ -1,13 +1,13 @@
 """A binary PLY whose body was written in the other byte order than its header says is refused, saying so
-(calib.scan_readers.ply_header)."""
+(airmat.calib.scan_readers.ply_header)."""
 
 import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from calib.scan_io import read_scan
-from calib.scan_readers.ply_header import check_ply_complete
-from design.target import load_target
+from airmat.calib.scan_io import read_scan
+from airmat.calib.scan_readers.ply_header import check_ply_complete
+from airmat.design.target import load_target
 
 
 def _cloud(n=3000):

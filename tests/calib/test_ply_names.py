@@ -1,11 +1,11 @@
 """PLY scans whose coordinates are named X, Y, Z read as x, y, z; a PLY without them says what it has
-(calib.scan_readers.ply_points.xyz_names, calib.scan_readers.mesh_reader)."""
+(airmat.calib.scan_readers.ply_points.xyz_names, airmat.calib.scan_readers.mesh_reader)."""
 
 import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from calib.scan_io import read_scan
+from airmat.calib.scan_io import read_scan
 
 
 def _points(n=500):
@@ -44,7 +44,7 @@ def test_a_ply_without_coordinates_says_what_it_has(tmp_path, encoding):
 def test_a_target_with_upper_case_coordinates_reads_as_the_lower_case_one(tmp_path):
     import trimesh
 
-    from design.target import load_target
+    from airmat.design.target import load_target
 
     u, v = np.meshgrid(np.linspace(0, 800, 9), np.linspace(0, 600, 7), indexing="ij")
     mesh = trimesh.Trimesh(np.c_[u.ravel(), v.ravel(), 100 * np.sin(np.pi * u.ravel() / 800)],

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-import calib.likelihood as lik
+import airmat.calib.likelihood as lik
 from airmat.errors import InputError
-from calib.curve import kappa_curve, most_common_L
-from calib.model import kappa1
-from calib.posterior import (DEFAULT_PRIORS, least_squares_start, log_probability,
+from airmat.calib.curve import kappa_curve, most_common_L
+from airmat.calib.model import kappa1
+from airmat.calib.posterior import (DEFAULT_PRIORS, least_squares_start, log_probability,
                              sample_posterior, specimen_data)
 
 DELTA, D, L = 0.018, 0.070, 0.300
@@ -135,7 +135,7 @@ def test_seeded_runs_are_reproducible():
 
 def test_short_chain_is_flagged_not_converged(caplog):
     data = synthetic(7)
-    with caplog.at_level(logging.WARNING, logger="calib.posterior"):
+    with caplog.at_level(logging.WARNING, logger="airmat.calib.posterior"):
         p = sample_posterior(data, seed=0, max_steps=60, chunk=30)
     assert not p.converged and p.residual > 1.0 and p.n_steps == 60 == p.n_iter
     assert "NOT converged" in p.message

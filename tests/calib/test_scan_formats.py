@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError, NotACylinderError
-from calib.cylinder_fit import fit_cylinder
-from calib.cylinder_stability import fit_cylinder_stable
-from calib.scan_io import read_scan
-from data_synthetic.ply_write import write_ply
-from data_synthetic.scan_write import FORMATS, write_scan
-from data_synthetic.specimen_scan import specimen_scan
+from airmat.calib.cylinder_fit import fit_cylinder
+from airmat.calib.cylinder_stability import fit_cylinder_stable
+from airmat.calib.scan_io import read_scan
+from airmat.synthetic.ply_write import write_ply
+from airmat.synthetic.scan_write import FORMATS, write_scan
+from airmat.synthetic.specimen_scan import specimen_scan
 
 
 def _max_nn_distance(a, b):
@@ -115,7 +115,7 @@ def test_cm_units(tmp_path, spec):
     ("# comment\n1 2 3\n4 5 6\n", 2),
 ])
 def test_text_layouts(tmp_path, text, n):
-    from calib.scan_readers import read_cloud
+    from airmat.calib.scan_readers import read_cloud
 
     path = tmp_path / "c.txt"
     path.write_text(text)
@@ -172,7 +172,7 @@ def test_tiny_cloud_message_speaks_in_points(spec):
 
 
 def test_noise_hint_names_the_option(spec, monkeypatch):
-    import calib.cylinder_fit as cf
+    import airmat.calib.cylinder_fit as cf
 
     real = cf.local_noise
 
@@ -190,7 +190,7 @@ def test_noise_hint_names_the_option(spec, monkeypatch):
 
 
 def test_seed_disagreement_widens_or_refuses(spec, monkeypatch):
-    import calib.cylinder_stability as cs
+    import airmat.calib.cylinder_stability as cs
 
     real = cs.fit_cylinder
     calls = []
@@ -217,7 +217,7 @@ def test_seeds_agree_on_a_clean_scan(spec):
 
 
 def test_check_fits_use_all_of_a_small_scan_and_25k_of_a_large_one(monkeypatch):
-    import calib.cylinder_stability as cs
+    import airmat.calib.cylinder_stability as cs
 
     assert [cs.check_subset_size(n) for n in (40_000, 100_000, 100_001, 1_280_000)] == \
         [40_000, 50_000, 25_000, 25_000]
@@ -236,7 +236,7 @@ def test_check_fits_use_all_of_a_small_scan_and_25k_of_a_large_one(monkeypatch):
 
 
 def test_check_fits_in_a_thread_give_the_same_bits_as_one_after_the_other(monkeypatch):
-    import calib.cylinder_stability as cs
+    import airmat.calib.cylinder_stability as cs
 
     big = specimen_scan(4.0, n_points=110_000, arc_deg=70.0, seed=6)
     threaded = fit_cylinder_stable(big.points, seed=2, n_seeds=3, n_check_points=25_000)
@@ -250,7 +250,7 @@ def test_check_fits_in_a_thread_give_the_same_bits_as_one_after_the_other(monkey
 
 @pytest.mark.parametrize("fmt", ["pts", "xyz", "txt"])
 def test_fast_text_read_is_bit_identical_to_loadtxt(tmp_path, spec, fmt):
-    from calib.scan_readers import read_cloud
+    from airmat.calib.scan_readers import read_cloud
 
     path = write_scan(tmp_path / f"s.{fmt}", spec.points[:3000] * 1e3, fmt)
     skip, delim = {"pts": (1, None), "xyz": (0, None), "txt": (1, ",")}[fmt]
@@ -260,8 +260,8 @@ def test_fast_text_read_is_bit_identical_to_loadtxt(tmp_path, spec, fmt):
 
 
 def test_text_rows_polars_refuses_go_to_loadtxt(tmp_path):
-    from calib.scan_readers import read_cloud
-    from calib.scan_readers.text_reader import read_columns_fast
+    from airmat.calib.scan_readers import read_cloud
+    from airmat.calib.scan_readers.text_reader import read_columns_fast
 
     path = tmp_path / "n.xyz"
     path.write_text("1 2 3\nnan 5 6\n7 8 9\n")  # nan: loadtxt reads it, the caller drops it
@@ -287,8 +287,8 @@ def test_text_rows_polars_refuses_go_to_loadtxt(tmp_path):
     "1 2 3\n4 5 6 7 8\n7 8 9 10\n",                                     # rows longer than the first
 ])
 def test_text_layouts_polars_reads(tmp_path, text):
-    from calib.scan_readers import read_cloud
-    from calib.scan_readers.text_reader import _layout, read_columns_fast
+    from airmat.calib.scan_readers import read_cloud
+    from airmat.calib.scan_readers.text_reader import _layout, read_columns_fast
 
     path = tmp_path / "c.txt"
     path.write_bytes(text.encode())
@@ -300,7 +300,7 @@ def test_text_layouts_polars_reads(tmp_path, text):
 
 
 def test_ascii_pcd_read_as_open3d_reads_it(tmp_path, spec):
-    from calib.scan_readers import pcd_reader
+    from airmat.calib.scan_readers import pcd_reader
 
     pts = spec.points[:4000] * 1e3
     pts[::9] = np.nan
@@ -318,7 +318,7 @@ def test_ascii_pcd_read_as_open3d_reads_it(tmp_path, spec):
 def test_binary_ply_cloud_read_by_numpy_as_trimesh_reads_it(tmp_path, spec, encoding, dtype):
     import trimesh
 
-    from calib.scan_readers.ply_points import read_binary_points
+    from airmat.calib.scan_readers.ply_points import read_binary_points
 
     pts = spec.points[:2000] * 1e3
     path = tmp_path / "c.ply"
@@ -363,7 +363,7 @@ def test_km_survey_tile_cli_exit_2(tmp_path, capsys):
 
 
 def test_binary_pcd_read_by_numpy_as_open3d_reads_it(tmp_path, spec):
-    from calib.scan_readers import pcd_reader
+    from airmat.calib.scan_readers import pcd_reader
 
     pts = spec.points[:4000] * 1e3
     pts[::9] = np.nan
@@ -393,7 +393,7 @@ def test_compressed_pcd_read_by_lzf_as_open3d_reads_it(tmp_path, spec, monkeypat
 
     import open3d as o3d
 
-    from calib.scan_readers import pcd_reader
+    from airmat.calib.scan_readers import pcd_reader
 
     pts = spec.points[:5000] * 1e3
     pts[::11] = np.nan
@@ -422,7 +422,7 @@ def test_compressed_pcd_read_by_lzf_as_open3d_reads_it(tmp_path, spec, monkeypat
 def test_laz14_decodes_only_the_xyz_layers_with_the_same_bits(tmp_path, spec):
     import laspy
 
-    from calib.scan_readers import las_reader
+    from airmat.calib.scan_readers import las_reader
 
     path = write_scan(tmp_path / "s.laz", spec.points * 1e3, "laz14", seed=2)
     full = laspy.read(str(path))

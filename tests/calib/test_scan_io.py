@@ -8,8 +8,8 @@ import pytest
 import trimesh
 
 from airmat.errors import InputError
-from calib.scan_io import MIN_POINTS, read_scan
-from data_synthetic.ply_write import ENCODINGS, write_ply
+from airmat.calib.scan_io import MIN_POINTS, read_scan
+from airmat.synthetic.ply_write import ENCODINGS, write_ply
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +87,7 @@ def test_nonfinite_points_are_dropped_counted_and_logged(tmp_path, cloud_mm, cap
     pts[20, 1] = np.inf
     path = tmp_path / "organized.ply"
     write_ply(path, pts, encoding="binary_little_endian", dtype="float32")
-    with caplog.at_level(logging.WARNING, logger="calib.scan_io"):
+    with caplog.at_level(logging.WARNING, logger="airmat.calib.scan_io"):
         scan = read_scan(path)
     assert scan.n_nonfinite_dropped == 4
     assert len(scan.points) == len(pts) - 4 and np.isfinite(scan.points).all()

@@ -2,16 +2,16 @@
 
 import numpy as np
 
-from check.compare import surface_at
-from check.length_map import length_map
-from design.calibration_source import default_calibration
-from design.mattress import Mattress
-from design.pattern import Dash, Pattern, TensionString
-from design.pipeline import DesignParams, DesignResult
-from design.surface import ApproxSurface
-from inflation.mesh import build_mattress_mesh
-from inflation.simulate import inflate
-from inflation.strings import StringSet
+from airmat.check.compare import surface_at
+from airmat.check.length_map import length_map
+from airmat.design.calibration_source import default_calibration
+from airmat.design.mattress import Mattress
+from airmat.design.pattern import Dash, Pattern, TensionString
+from airmat.design.pipeline import DesignParams, DesignResult
+from airmat.design.surface import ApproxSurface
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.simulate import inflate
+from airmat.inflation.strings import StringSet
 
 MATTRESS = Mattress(0.5, 0.4, 0.05)
 RESOLUTION = 0.04

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calib.model import kappa1
-from check.compare import deviation, realized_curvature, surface_at
-from inflation.mesh import build_mattress_mesh
-from inflation.simulate import inflate
-from inflation.strings import StringSet
+from airmat.calib.model import kappa1
+from airmat.check.compare import deviation, realized_curvature, surface_at
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.simulate import inflate
+from airmat.inflation.strings import StringSet
 
 W, H, D = 0.6, 0.3, 0.07
 V = np.array([0.075, 0.225])

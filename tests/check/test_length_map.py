@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from calib.model import kappa1
-from check.length_map import CalibratedLengthMap, LengthMap, length_map
+from airmat.calib.model import kappa1
+from airmat.check.length_map import CalibratedLengthMap, LengthMap, length_map
 
 
 def _table_map(seed=0, L=0.3, delta=0.018):
@@ -58,13 +58,13 @@ def _fake_specimens(calls):
 
 
 def test_the_cache_is_used_the_second_time(tmp_path, monkeypatch):
-    import check.validation
+    import airmat.check.validation as validation
 
-    from check.calibrated_map import N_ROWS, calibrated_length_map
+    from airmat.check.calibrated_map import N_ROWS, calibrated_length_map
 
     monkeypatch.setenv("AIRMAT_CACHE", str(tmp_path))
     calls = []
-    monkeypatch.setattr(check.validation, "specimen_kappa", _fake_specimens(calls))
+    monkeypatch.setattr(validation, "specimen_kappa", _fake_specimens(calls))
     kw = dict(L=0.3, delta=0.018, d=0.068, thickness=0.07, resolution=0.04)
     first = calibrated_length_map(**kw)
     assert calls == [N_ROWS] and len(list((tmp_path / "length_map").glob("*.json"))) == 1
@@ -81,12 +81,12 @@ def test_the_cache_is_used_the_second_time(tmp_path, monkeypatch):
 
 def test_fake_table_reproduces_the_calibrated_curve(tmp_path, monkeypatch):
     # through the map, the (fake) simulator bends to Equation 3 with the calibration's Δ and d
-    import check.validation
+    import airmat.check.validation as validation
 
-    from check.calibrated_map import calibrated_length_map
+    from airmat.check.calibrated_map import calibrated_length_map
 
     monkeypatch.setenv("AIRMAT_CACHE", str(tmp_path))
-    monkeypatch.setattr(check.validation, "specimen_kappa", _fake_specimens([]))
+    monkeypatch.setattr(validation, "specimen_kappa", _fake_specimens([]))
     L, delta, d = 0.3, 0.018, 0.068
     m = calibrated_length_map(L=L, delta=delta, d=d, thickness=0.07, resolution=0.04)
     l = np.linspace(0.3, 0.85, 12) * L
@@ -96,7 +96,7 @@ def test_fake_table_reproduces_the_calibrated_curve(tmp_path, monkeypatch):
 
 
 def test_design_strings_send_every_tolerance_end_through_the_same_map():
-    from check.inflation_check import design_strings
+    from airmat.check.inflation_check import design_strings
 
     m = _table_map(3)
     strings = [SimpleNamespace(dash=SimpleNamespace(a=(0.1, 0.1 * i), b=(0.4, 0.1 * i), id=f"d{i}"), side="bottom",
@@ -114,8 +114,8 @@ def test_simulated_specimen_reproduces_the_calibrated_kappa1(tmp_path, monkeypat
     # the real thing at 40 mm: the map built from 8 simulated specimens, then the specimen simulated
     # through it at l/L = 0.4, 0.6, 0.8 bends as Equation 3 with the calibration median says, within 5 %
     # (measured: -1.4, -0.9, +0.1 %; κ₁ as the cross-section circles of the string face).
-    from check.validation import SpecimenLayout, validate_equation3
-    from design.calibration_source import default_calibration
+    from airmat.check.validation import SpecimenLayout, validate_equation3
+    from airmat.design.calibration_source import default_calibration
 
     monkeypatch.setenv("AIRMAT_CACHE", str(tmp_path))
     cal = default_calibration()

@@ -1,4 +1,4 @@
-"""check.monte_carlo: the sampled string lengths, their statistics, and the known answer of a collapsed posterior."""
+"""airmat.check.monte_carlo: the sampled string lengths, their statistics, and the known answer of a collapsed posterior."""
 
 from dataclasses import replace
 from pathlib import Path
@@ -6,9 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from check.inflation_check import check, design_strings
-from check.monte_carlo import MonteCarloDraws, draw, quantile_se, summarize
-from design.design_io import read_design
+from airmat.check.inflation_check import check, design_strings
+from airmat.check.monte_carlo import MonteCarloDraws, draw, quantile_se, summarize
+from airmat.design.design_io import read_design
 
 import sys
 
@@ -99,9 +99,9 @@ def test_a_check_with_samples_puts_its_band_in_inflated_3dm_and_the_report(small
     """The API end to end: check(samples=K) -> write_check's inflated.3dm layer and report.html's band."""
     import rhino3dm
 
-    from check.report import write_check
-    from design.export.rhino import band_colours
-    from report.page import report_html
+    from airmat.check.report import write_check
+    from airmat.design.export.rhino import band_colours
+    from airmat.report.page import report_html
 
     res = check(_spread(small), resolution=0.05, envelope=False, samples=6, seed=5, tolerance=0.05)
     q95 = res.monte_carlo.per_vertex_q[1]

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from check.inflation_check import named_face
+from airmat.check.inflation_check import named_face
 
 
 def _design(metric_face, kappas):

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from check.inflation_check import check
-from design.pipeline import design
-from design.presets import preset
+from airmat.check.inflation_check import check
+from airmat.design.pipeline import design
+from airmat.design.presets import preset
 
 
 @pytest.mark.slow

@@ -12,11 +12,11 @@ sys.path.insert(0, str(Path(__file__).parent))
 from refine_case import OFF, RESOLUTION, TRUE_SIM, off_case, small_design  # noqa: E402
 
 from airmat.errors import InputError  # noqa: E402
-from check.inflation_check import check, design_strings, open_loop_strings  # noqa: E402
-from check.length_map import length_map  # noqa: E402
-from check.refinement import refine  # noqa: E402
-from design.design_io import read_design, write_design  # noqa: E402
-from inflation.model import Parameters  # noqa: E402
+from airmat.check.inflation_check import check, design_strings, open_loop_strings  # noqa: E402
+from airmat.check.length_map import length_map  # noqa: E402
+from airmat.check.refinement import refine  # noqa: E402
+from airmat.design.design_io import read_design, write_design  # noqa: E402
+from airmat.inflation.model import Parameters  # noqa: E402
 
 #: the small case with a known answer (refine_case.py), once per module
 case = pytest.fixture(scope="module", name="case")(off_case)
@@ -95,7 +95,7 @@ def test_the_check_takes_the_verification_as_its_median_run_only_when_it_is_that
 
 
 def test_the_refined_design_carries_s_hat_reparametrized_and_none_keeps_it_as_designed(case, refined):
-    # by default one round moves Ŝ's points along Ŝ into the metric the face realizes (check.reparametrize);
+    # by default one round moves Ŝ's points along Ŝ into the metric the face realizes (airmat.check.reparametrize);
     # the refined design carries that Ŝ, which the check compared with above (the deviation it reproduces)
     r = refined
     rep = r.reparametrization
@@ -147,8 +147,8 @@ def test_a_refined_design_refined_again_starts_where_its_check_lands(case, refin
 def test_the_checks_tolerance_is_the_inflations_default():
     import inspect
 
-    from inflation.simulate import INFLATE_TOL
-    from inflation.simulate import inflate as inflate_fn
+    from airmat.inflation.simulate import INFLATE_TOL
+    from airmat.inflation.simulate import inflate as inflate_fn
     assert inspect.signature(inflate_fn).parameters["tol"].default == INFLATE_TOL
     assert inspect.signature(refine).parameters["tol"].default == INFLATE_TOL   # the verification the check reuses
 
@@ -207,9 +207,9 @@ def test_bad_input_is_refused_before_any_work(case, what, words):
 def test_dropping_strings_recomputes_the_coverage(tmp_path):
     """A refined pattern that lost strings reports its own coverage (in memory), or says it is not known
     (a design read from its folder keeps no curvature field)."""
-    from check.refined_design import refined_design
-    from design.pipeline import DesignParams, design
-    from design.presets import preset
+    from airmat.check.refined_design import refined_design
+    from airmat.design.pipeline import DesignParams, design
+    from airmat.design.presets import preset
 
     target, mattress = preset("vault1")
     d = design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
@@ -264,7 +264,7 @@ def test_lengths_that_verify_worse_are_not_kept_and_the_message_names_what_is(ca
     # the verification of the refined lengths made worse on purpose (every string 20 mm shorter): the given
     # lengths are kept, converged=False, and the message names them (the open-loop ones, or a refined
     # design's own when a refined design is refined again)
-    import check.refinement as refinement
+    import airmat.check.refinement as refinement
 
     calls, inflate_from = [], refinement.inflate_from
 

@@ -10,7 +10,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from refine_case import off_case  # noqa: E402
 
 from airmat.cli import main  # noqa: E402
-from design.design_io import write_design  # noqa: E402
+from airmat.design.design_io import write_design  # noqa: E402
 
 #: the small case with a known answer (refine_case.py), once per module
 case = pytest.fixture(scope="module", name="case")(off_case)

@@ -10,14 +10,14 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))
 from refine_case import OFF, RESOLUTION, TRUE_SIM, off_case  # noqa: E402
 
-from check.adjoint import adjoint_gradient, factor_equilibrium, rest_derivative  # noqa: E402
-from check.inflation_check import check, design_strings  # noqa: E402
-from check.refine_objective import face_fit  # noqa: E402
-from check.refinement import refine  # noqa: E402
-from check.trial_equilibrium import make_problem  # noqa: E402
-from inflation.mesh import build_mattress_mesh  # noqa: E402
-from inflation.model import Parameters  # noqa: E402
-from inflation.simulate import inflate  # noqa: E402
+from airmat.check.adjoint import adjoint_gradient, factor_equilibrium, rest_derivative  # noqa: E402
+from airmat.check.inflation_check import check, design_strings  # noqa: E402
+from airmat.check.refine_objective import face_fit  # noqa: E402
+from airmat.check.refinement import refine  # noqa: E402
+from airmat.check.trial_equilibrium import make_problem  # noqa: E402
+from airmat.inflation.mesh import build_mattress_mesh  # noqa: E402
+from airmat.inflation.model import Parameters  # noqa: E402
+from airmat.inflation.simulate import inflate  # noqa: E402
 
 #: the small case with a known answer (refine_case.py), once per module
 case = pytest.fixture(scope="module", name="case")(off_case)
@@ -45,7 +45,7 @@ def test_a_failed_trial_leaves_the_newton_shift_as_it_was(case):
 
 
 def test_a_trial_has_a_smaller_newton_budget_than_the_solves_that_are_not_trials(case):
-    from check.trial_equilibrium import SOLVE_NEWTON, TRIAL_NEWTON
+    from airmat.check.trial_equilibrium import SOLVE_NEWTON, TRIAL_NEWTON
 
     prob, s, inf = _problem(case, tol=1e-8)
     assert prob.max_newton == TRIAL_NEWTON < SOLVE_NEWTON
@@ -60,24 +60,24 @@ def test_a_trial_without_an_equilibrium_is_not_logged_as_a_warning_but_a_plain_s
     # API users would otherwise see one warning per refused step
     import logging
 
-    from inflation.solver import solve
+    from airmat.inflation.solver import solve
 
     prob, s, inf = _problem(case, tol=1e-8)
     shaken = inf.xyz + 0.002 * np.random.default_rng(1).normal(size=inf.xyz.shape)
-    with caplog.at_level(logging.DEBUG, logger="inflation.solver"):
+    with caplog.at_level(logging.DEBUG, logger="airmat.inflation.solver"):
         assert prob.equilibrium(s.rest, shaken, max_newton=1) is None
     unconverged = [r for r in caplog.records if "not converged" in r.getMessage()]
     assert unconverged and all(r.levelno == logging.DEBUG for r in unconverged)
     caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="inflation.solver"):
+    with caplog.at_level(logging.WARNING, logger="airmat.inflation.solver"):
         r = solve(prob.model(s.rest), shaken, fixed_dofs=prob.fixed, tol=1e-8, max_iter=1)
     assert not r.converged
     assert [rec.levelno for rec in caplog.records] == [logging.WARNING]
 
 
 def test_the_trials_solve_with_their_own_rule_for_a_refused_step(case, monkeypatch):
-    import check.trial_equilibrium as te
-    import inflation.solver as sv
+    import airmat.check.trial_equilibrium as te
+    import airmat.inflation.solver as sv
 
     prob, s, inf = _problem(case, tol=1e-8)
     seen = []
@@ -125,8 +125,8 @@ def test_adjoint_gradient_and_jacobian_match_finite_differences(case):
 
 def test_a_defect_correction_makes_the_coarse_face_fit_the_fine_one(case):
     # after a correction at lengths l, the coarse face fit at its equilibrium is the fine face's at l
-    from check.trial_equilibrium import coarse_start, correct
-    from check.inflation_check import named_face
+    from airmat.check.trial_equilibrium import coarse_start, correct
+    from airmat.check.inflation_check import named_face
     s = design_strings(case)
     m = case.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.02)
@@ -173,7 +173,7 @@ def test_the_reduced_damped_step_is_the_tall_problems_step():
     # (3N + k) × k problem, and the same residual for every step
     from scipy.optimize import lsq_linear
 
-    from check.damped_step import damped_step, reduce_least_squares
+    from airmat.check.damped_step import damped_step, reduce_least_squares
     rng = np.random.default_rng(3)
     a, r = rng.normal(size=(400, 15)), rng.normal(size=400)
     scale = np.linalg.norm(a, axis=0)
@@ -196,7 +196,7 @@ def test_the_reduction_keeps_an_ill_conditioned_jacobians_steps():
     # effect) over the Tikhonov rows w I; the Gram matrix squares its condition number (~1e9 here)
     from scipy.optimize import lsq_linear
 
-    from check.damped_step import damped_step, reduce_least_squares
+    from airmat.check.damped_step import damped_step, reduce_least_squares
     rng = np.random.default_rng(5)
     base = rng.normal(size=(600, 8))
     jac = np.hstack([base, base + 1e-3 * rng.normal(size=(600, 8))])     # pairs of near-twins
@@ -213,7 +213,7 @@ def test_the_reduction_keeps_an_ill_conditioned_jacobians_steps():
 def test_the_coarse_start_is_the_coarse_meshs_own_inflation(case):
     # the first inflation keeps its coarser levels (without changing its result); the open-loop equilibrium
     # on the 40 mm mesh carried on from its level is the one a fresh inflation on that mesh finds
-    from check.trial_equilibrium import coarse_start
+    from airmat.check.trial_equilibrium import coarse_start
     s = design_strings(case)
     m = case.mattress
     mesh = build_mattress_mesh(m.width, m.height, m.thickness, resolution=0.02)
@@ -259,7 +259,7 @@ def test_a_step_that_realizes_under_a_quarter_of_its_predicted_decrease_is_not_t
     # the saddle's first iteration used to accept a 50 mm change of its lengths that realized 1 % of the
     # predicted decrease (rho 0.01), and the refinement then landed anywhere between 0.89 and 1.26 % of the
     # diagonal over lengths jittered by 5 µm; a step is now taken only when rho > ACCEPT (0.25)
-    from check.gauss_newton import ACCEPT, gauss_newton
+    from airmat.check.gauss_newton import ACCEPT, gauss_newton
     prob = _Overshoot()
     kw = dict(alpha=1e-12, ftol=1e-12, xtol=1e-12, rms_tol=0.0)
     lo, hi, x0 = np.array([-10.0]), np.array([10.0]), np.zeros((1, 3))
@@ -293,7 +293,7 @@ def test_the_damping_shrinks_only_after_an_iteration_whose_first_step_was_taken(
     # after an iteration that had to grow the damping (a trial without an equilibrium, or refused), the next
     # one starts from the damping that worked, not a third of it: on the dome the shrunk damping's first
     # trials failed again and again (README, Refinement: "Which steps are taken")
-    from check.gauss_newton import LAM_DOWN, gauss_newton
+    from airmat.check.gauss_newton import LAM_DOWN, gauss_newton
     kw = dict(alpha=1e-12, ftol=1e-12, xtol=1e-12, rms_tol=0.0)
     lo, hi, x0 = np.array([-10.0]), np.array([10.0]), np.zeros((1, 3))
     prob = _OutOfReach(reach=0.9)

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from check.reparametrize import realized_ratio, reparametrize
-from design.mattress import Mattress, triangulate_mattress
+from airmat.check.reparametrize import realized_ratio, reparametrize
+from airmat.design.mattress import Mattress, triangulate_mattress
 
 R = 0.3          # cylinder radius (m)
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from check.validation import SpecimenLayout, specimen_strings, validate_equation3
+from airmat.check.validation import SpecimenLayout, specimen_strings, validate_equation3
 
 
 @pytest.mark.parametrize("stagger", [False, True])
@@ -23,7 +23,7 @@ def test_specimen_strings_are_chained_parallel_and_inside(stagger):
 
 
 def test_the_polygon_needs_three_folds_per_row():
-    from check.validation import polygon_curvature
+    from airmat.check.validation import polygon_curvature
 
     with pytest.raises(ValueError, match="three folds"):
         polygon_curvature(None, SpecimenLayout(n_series=2))
@@ -73,7 +73,7 @@ def test_simulated_kappa1_against_equation3():
 def test_validation_figure_is_a_figure_with_the_points_and_equation_3():
     from matplotlib.figure import Figure
 
-    from check.validation import ValidationPoint, validation_figure
+    from airmat.check.validation import ValidationPoint, validation_figure
 
     lay = SpecimenLayout(L=0.25, thickness=0.05)
     pts = [ValidationPoint(r, 10 * r, 0.2, 11 * r, 9 * r, True, 10, 1.0, "ok", fold_side=0.2 * (1 + r),
@@ -99,8 +99,8 @@ def test_measures_of_a_bent_strip_read_its_radii():
     # R + d keeping its length; the polygon and section measures read 1/R and 1/(R + d)
     from types import SimpleNamespace
 
-    from check.validation import fold_geometry, polygon_curvature, section_curvature, turn_angle
-    from inflation.mesh import build_mattress_mesh
+    from airmat.check.validation import fold_geometry, polygon_curvature, section_curvature, turn_angle
+    from airmat.inflation.mesh import build_mattress_mesh
 
     lay = SpecimenLayout()
     mesh = build_mattress_mesh(lay.width, lay.height, lay.thickness, resolution=0.05)

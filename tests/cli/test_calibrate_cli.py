@@ -88,7 +88,7 @@ def bad_cases(tmp, synth_set):
     bad_manifest.write_text("scan,l_mm\nspecimen_00.ply,90\n")
     not_cyl = tmp / "noise"
     not_cyl.mkdir()
-    from data_synthetic.ply_write import write_ply
+    from airmat.synthetic.ply_write import write_ply
     rng = np.random.default_rng(0)
     for name in ("a.ply", "b.ply", "c.ply"):
         write_ply(not_cyl / name, rng.uniform(-200, 200, (5000, 3)))
@@ -139,7 +139,7 @@ def test_calibrate_fit_that_did_not_converge_is_an_error_naming_the_scan(synth_s
                                                                           monkeypatch):
     import dataclasses
 
-    import calib.cylinder_fit as cf
+    import airmat.calib.cylinder_fit as cf
 
     real = cf.full_resolution_fit
 

@@ -26,7 +26,7 @@ pytestmark = pytest.mark.skipif(not DASK.exists(), reason="the dask command is n
 
 #: a worker preload whose inflations raise (the failure test)
 BOOM = '''
-import inflation.simulate as simulate
+import airmat.inflation.simulate as simulate
 
 
 def _boom(*args, **kwargs):
@@ -130,7 +130,7 @@ def test_a_worker_that_raises_ends_the_run_with_one_line(tmp_path, design_dir):
 
 
 def test_no_scheduler_at_the_address_is_bad_input(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr("inflation.executor.CONNECT_TIMEOUT", "2s")
+    monkeypatch.setattr("airmat.inflation.executor.CONNECT_TIMEOUT", "2s")
     design = make_design(tmp_path / "design")
     assert main(["inflate", str(design), "--out", str(tmp_path / "out"), "--resolution-mm", "50",
                  "--scheduler", "tcp://127.0.0.1:9", "-q"]) == 2

@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 from airmat.cli import main
-from design.design_io import OUTPUT_FILES
-from data_synthetic.targets import cylinder
+from airmat.design.design_io import OUTPUT_FILES
+from airmat.synthetic.targets import cylinder
 
 FILES = set(OUTPUT_FILES) | {"report.html"}
 FAST = ["--spacing-mm", "40"]
@@ -53,7 +53,7 @@ def test_design_of_a_target_file_writes_everything_and_is_reproducible(cylinder_
     assert {d["side"] for d in doc["dashes"]} == {"bottom"}
     assert f"bottom face: {len(doc['dashes']):3d} k1 strings" in out
     assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(b)]) == 0
-    for name in sorted(FILES):                  # design.3dm too: design.export.rhino_stable
+    for name in sorted(FILES):                  # design.3dm too: airmat.design.export.rhino_stable
         assert (a / name).read_bytes() == (b / name).read_bytes(), name
 
 

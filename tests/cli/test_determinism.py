@@ -2,7 +2,7 @@
 
 Every file of every output folder must be identical, except the one
 ``timings_s`` field at the top of each JSON document (wall-clock seconds);
-the .3dm files too (their time stamps are fixed by design.export.rhino_stable).
+the .3dm files too (their time stamps are fixed by airmat.design.export.rhino_stable).
 Both chains use the same relative paths (each from its own working folder),
 since the documents record where their inputs were.
 """

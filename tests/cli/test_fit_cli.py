@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from airmat.cli import main
-from data_synthetic.ply_write import write_ply
-from data_synthetic.specimen_scan import specimen_scan
+from airmat.synthetic.ply_write import write_ply
+from airmat.synthetic.specimen_scan import specimen_scan
 
 FIELDS = ("radius_mm", "kappa_per_m", "kappa_se_per_m", "axis", "inlier_fraction", "rms_mm", "arc_deg",
           "n_points", "converged")
@@ -97,7 +97,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys, case):
 def test_a_fit_that_did_not_converge_is_an_error_naming_the_scan(scan_mm, capsys, monkeypatch):
     import dataclasses
 
-    import calib.cylinder_fit as cf
+    import airmat.calib.cylinder_fit as cf
 
     real = cf.full_resolution_fit
 
@@ -117,7 +117,7 @@ def test_a_fit_that_did_not_converge_is_an_error_naming_the_scan(scan_mm, capsys
 def test_fit_reads_a_multiscan_e57_and_a_georeferenced_laz(tmp_path, capsys):
     from scipy.spatial.transform import Rotation
 
-    from data_synthetic.scan_write import write_scan
+    from airmat.synthetic.scan_write import write_scan
 
     s = specimen_scan(4.0, n_points=30_000, arc_deg=60, seed=7)
     poses = [(np.eye(3), np.zeros(3)), (Rotation.from_euler("z", 60, degrees=True).as_matrix(),
@@ -142,7 +142,7 @@ def test_fit_reads_a_multiscan_e57_and_a_georeferenced_laz(tmp_path, capsys):
 
 
 def test_fit_scan_units_cm(tmp_path, capsys):
-    from data_synthetic.scan_write import write_scan
+    from airmat.synthetic.scan_write import write_scan
 
     s = specimen_scan(4.0, n_points=30_000, arc_deg=60, seed=7)
     path = write_scan(tmp_path / "cm.xyz", s.points * 1e2, "xyz")
@@ -155,7 +155,7 @@ def test_a_refused_sparse_scan_says_it_may_be_too_sparse(tmp_path, capsys):
     """A synthetic set of 2000 points per scan (below synth's 10 000): its specimen 04 is refused for the
     normals' scatter, and the message says that so few points may be why; the same specimen at 10 000
     points fits."""
-    from data_synthetic.calibration_set import calibration_set
+    from airmat.synthetic.calibration_set import calibration_set
 
     calibration_set(tmp_path / "sparse", n_points=2000, seed=0)
     code, _, err = _run(["fit", str(tmp_path / "sparse" / "specimen_04.ply")], capsys)

@@ -60,6 +60,6 @@ def test_unknown_preset_exits_2_with_one_line(tmp_path, capsys):
 
 def test_gallery_lists_every_preset_the_generator_has():
     from airmat.cli.gallery import PRESETS as GALLERY
-    from design.presets import PRESETS
+    from airmat.design.presets import PRESETS
 
     assert GALLERY == PRESETS

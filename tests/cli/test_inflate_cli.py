@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from airmat.cli import main
-from design.mattress import Mattress, triangulate_mattress
-from design.surface_io import write_approx_surface
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.surface_io import write_approx_surface
 
 
 def _dash(i, side, v_mm, l_mm):
@@ -73,7 +73,7 @@ def _check_inflated_3dm(path, design, doc):
     """inflated.3dm: the design's layers plus the aligned shapes, in Ŝ's frame (within the deviation)."""
     import rhino3dm
 
-    from design.design_io import read_design
+    from airmat.design.design_io import read_design
 
     model = rhino3dm.File3dm.Read(str(path))
     assert model.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
@@ -96,9 +96,9 @@ def test_inflated_ply_overlays_the_approx_surface(tmp_path):
     # lies on Ŝ within the reported RMS (the same rigid motion, so the same distances)
     import trimesh
 
-    from check.compare import surface_at
-    from design.surface_io import read_approx_surface
-    from inflation.mesh import build_mattress_mesh
+    from airmat.check.compare import surface_at
+    from airmat.design.surface_io import read_approx_surface
+    from airmat.inflation.mesh import build_mattress_mesh
 
     design = make_design(tmp_path / "design")
     out = tmp_path / "out"

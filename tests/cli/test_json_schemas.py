@@ -1,4 +1,4 @@
-"""Every JSON output against its schema in ``schemas/`` (issue 13), on the outputs of small real runs.
+"""Every JSON output against its schema in ``airmat/schemas/`` (package data) (issue 13), on the outputs of small real runs.
 
 Also: every schema is a valid JSON Schema (2020-12), every file carries
 ``schema_version``/``airmat_version`` and holds no bare NaN, and the schemas do
@@ -6,6 +6,7 @@ refuse a document that breaks them (they are not vacuous).
 """
 
 import contextlib
+import importlib.resources
 import io
 import json
 from pathlib import Path
@@ -17,7 +18,7 @@ jsonschema = pytest.importorskip("jsonschema")
 from airmat.cli import main  # noqa: E402
 from airmat.json_doc import SCHEMA_VERSION  # noqa: E402
 
-SCHEMAS = Path(__file__).resolve().parents[2] / "schemas"
+SCHEMAS = Path(str(importlib.resources.files("airmat") / "schemas"))
 OUTPUTS = ("calibration", "design", "inflate", "validate", "gallery", "retie", "fit")
 
 
@@ -105,8 +106,8 @@ def test_the_schemas_refuse_a_broken_document(runs, name, edit):
 
 
 def test_a_flat_fit_gives_null_radius_with_a_reason(tmp_path, capsys):
-    from data_synthetic.ply_write import write_ply
-    from data_synthetic.specimen_scan import specimen_scan
+    from airmat.synthetic.ply_write import write_ply
+    from airmat.synthetic.specimen_scan import specimen_scan
 
     path = tmp_path / "flat.ply"
     write_ply(path, specimen_scan(0.0, n_points=20_000, seed=9).points * 1e3)

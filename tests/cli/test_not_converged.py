@@ -42,11 +42,11 @@ def test_calibrate_a_short_mcmc_is_exit_3_with_one_line(small_set, tmp_path, cap
     out = tmp_path / "cal"
     argv = ["calibrate", str(small_set / "set" / "manifest.csv"), "--out", str(out),
             "--walkers", "16", "--max-steps", "100", "--seed", "7"]
-    with caplog.at_level(logging.WARNING, logger="calib.posterior"):
+    with caplog.at_level(logging.WARNING, logger="airmat.calib.posterior"):
         code, err = _run(argv, capsys)          # a real run: 100 steps are far too few for the MCMC
     assert code == 3
     _one_line(err, "calibrate", "MCMC")
-    assert any("NOT converged" in r.getMessage() for r in caplog.records if r.name == "calib.posterior")
+    assert any("NOT converged" in r.getMessage() for r in caplog.records if r.name == "airmat.calib.posterior")
     assert json.loads((out / "calibration.json").read_text())["diagnostics"]["converged"] is False
     code, err = _run(argv[:3] + [str(tmp_path / "cal_v")] + argv[4:] + ["-v"], capsys)
     assert code == 3 and len(err) > 1 and any(line.startswith("WARNING: MCMC NOT converged") for line in err)
@@ -54,28 +54,28 @@ def test_calibrate_a_short_mcmc_is_exit_3_with_one_line(small_set, tmp_path, cap
 
 
 def test_design_an_unconverged_relaxation_is_exit_3(small_set, tmp_path, capsys, caplog, monkeypatch):
-    import design.pipeline as pipeline
+    import airmat.design.pipeline as pipeline
 
     real = pipeline.design
 
     def stopped(*args, **kwargs):
         result = real(*args, **kwargs)
         relax = dataclasses.replace(result.approx.relax, converged=False, message="stopped at 5 iterations")
-        logging.getLogger("design.relax").warning("U_A relaxation not converged: %s", relax.message)
+        logging.getLogger("airmat.design.relax").warning("U_A relaxation not converged: %s", relax.message)
         return dataclasses.replace(result, approx=dataclasses.replace(result.approx, relax=relax))
 
     monkeypatch.setattr(pipeline, "design", stopped)
     out = tmp_path / "design"
-    with caplog.at_level(logging.WARNING, logger="design.relax"):
+    with caplog.at_level(logging.WARNING, logger="airmat.design.relax"):
         code, err = _run(["design", "--preset", "vault1", "--spacing-mm", "40", "--out", str(out)], capsys)
     assert code == 3
     _one_line(err, "design", "U_A relaxation: stopped at 5 iterations")
-    assert [r.name for r in caplog.records if "not converged" in r.getMessage()] == ["design.relax"]
+    assert [r.name for r in caplog.records if "not converged" in r.getMessage()] == ["airmat.design.relax"]
     assert json.loads((out / "design.json").read_text())["relaxation"]["converged"] is False
 
 
 def _unconverged_check(monkeypatch):
-    import check.inflation_check as ic
+    import airmat.check.inflation_check as ic
 
     real = ic.check
 
@@ -83,7 +83,7 @@ def _unconverged_check(monkeypatch):
         result = real(*args, **kwargs)
         med = result.runs["median"]
         inf = dataclasses.replace(med.inflation, converged=False, message="Newton stopped at 3 iterations")
-        logging.getLogger("inflation.solver").warning("inflation not converged: %s", inf.message)
+        logging.getLogger("airmat.inflation.solver").warning("inflation not converged: %s", inf.message)
         runs = {**result.runs, "median": dataclasses.replace(med, inflation=inf)}
         return dataclasses.replace(result, runs=runs)
 
@@ -93,18 +93,18 @@ def _unconverged_check(monkeypatch):
 def test_inflate_an_unconverged_inflation_is_exit_3(small_set, tmp_path, capsys, caplog, monkeypatch):
     _unconverged_check(monkeypatch)
     out = tmp_path / "inflate"
-    with caplog.at_level(logging.WARNING, logger="inflation.solver"):
+    with caplog.at_level(logging.WARNING, logger="airmat.inflation.solver"):
         code, err = _run(["inflate", str(small_set / "design"), "--out", str(out), "--resolution-mm", "60",
                           "--no-envelope", "--jobs", "1"], capsys)
     assert code == 3
     _one_line(err, "inflate", "median string lengths: Newton stopped at 3 iterations")
-    assert any(r.name == "inflation.solver" for r in caplog.records)
+    assert any(r.name == "airmat.inflation.solver" for r in caplog.records)
     doc = json.loads((out / "inflate.json").read_text())
     assert doc["converged"] is False and doc["solver"]["converged"] is False
 
 
 def test_validate_an_unconverged_point_is_exit_3(tmp_path, capsys, monkeypatch):
-    import check.validation as validation
+    import airmat.check.validation as validation
 
     real = validation.validate_equation3
 

@@ -34,7 +34,7 @@ def test_the_specimen_takes_another_L(tmp_path, capsys):
     (p,) = doc["points"]
     assert p["converged"] and p["kappa_polygon_per_m"] > 0 and p["kappa_eq3_per_m"] > 0
     # the polygon taken apart, next to Equation 3's L* and θ at L = 200 mm, l/L = 0.7
-    from calib.model import bend_angle, polygon_side
+    from airmat.calib.model import bend_angle, polygon_side
     assert p["model_side_mm"] == pytest.approx(1e3 * float(polygon_side(0.14, 0.2, 0.0, 0.07)), abs=0.01)
     assert p["model_angle_deg"] == pytest.approx(float(np.degrees(bend_angle(0.14, 0.2, 0.0, 0.07))), abs=0.01)
     assert 0.8 < p["fold_side_mm"] / p["model_side_mm"] < 1.2 and 90 < p["fold_angle_deg"] < 180

@@ -6,13 +6,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import data_synthetic.specimen_scan as specimen_scan_module
+import airmat.synthetic.specimen_scan as specimen_scan_module
 from airmat.errors import InputError
-from calib.manifest import read_manifest
-from calib.model import kappa1
-from calib.scan_io import read_scan
-from data_synthetic.calibration_set import DEFAULT_L_OVER_L, PLY_FORMATS, calibration_set
-from data_synthetic.specimen_scan import specimen_scan
+from airmat.calib.manifest import read_manifest
+from airmat.calib.model import kappa1
+from airmat.calib.scan_io import read_scan
+from airmat.synthetic.calibration_set import DEFAULT_L_OVER_L, PLY_FORMATS, calibration_set
+from airmat.synthetic.specimen_scan import specimen_scan
 
 RATIOS = (0.3, 0.5, 0.7, 0.9, 0.95, 0.6)
 N = 3000

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from data_synthetic.specimen_scan import CLUTTER, FLOOR, SPECIMEN, specimen_scan
+from airmat.synthetic.specimen_scan import CLUTTER, FLOOR, SPECIMEN, specimen_scan
 
 
 def _radial(scan, pts):

@@ -1,4 +1,4 @@
-"""Analytic targets and presets (data_synthetic.targets, design.presets)."""
+"""Analytic targets and presets (airmat.synthetic.targets, airmat.design.presets)."""
 
 import numpy as np
 import pytest
@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 from airmat.errors import InputError
 from airmat.geometry.graph_curvature import graph_curvature
-from design.presets import PRESETS, preset
-from data_synthetic.targets import cone, cylinder, saddle, sphere_cap
+from airmat.design.presets import PRESETS, preset
+from airmat.synthetic.targets import cone, cylinder, saddle, sphere_cap
 
 
 def _face_normals(t):

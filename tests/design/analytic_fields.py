@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.field import MattressField
+from airmat.design.field import MattressField
 
 #: grid spacing (m) of the fields that are constant or linear on Ω
 COARSE = 0.05

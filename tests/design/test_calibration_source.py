@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from design.calibration_source import PAPER, default_calibration, load_calibration
+from airmat.design.calibration_source import PAPER, default_calibration, load_calibration
 
 
 def test_default_is_the_paper_with_a_stated_seeded_uncertainty():

@@ -1,11 +1,11 @@
-"""Closest points on a target and their continuation across its rim (design.closest_point)."""
+"""Closest points on a target and their continuation across its rim (airmat.design.closest_point)."""
 
 import numpy as np
 import pytest
 
-from data_synthetic.targets import cylinder
-from design.closest_point import MeshProjector
-from design.mattress import Mattress, triangulate_mattress
+from airmat.synthetic.targets import cylinder
+from airmat.design.closest_point import MeshProjector
+from airmat.design.mattress import Mattress, triangulate_mattress
 
 
 @pytest.fixture(scope="module")
@@ -107,7 +107,7 @@ def test_the_answers_do_not_depend_on_the_threads():
 
 def test_a_projector_that_chose_its_threads_looks_again_while_it_is_used(monkeypatch):
     import airmat.cores
-    import design.closest_point as cp
+    import airmat.design.closest_point as cp
 
     clock, busy = [100.0], [0]
     monkeypatch.setattr(cp.time, "monotonic", lambda: clock[0])

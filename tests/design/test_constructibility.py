@@ -1,12 +1,12 @@
-"""Table-1 figures and the constructibility verdict (design.constructibility), and Ω's mesh."""
+"""Table-1 figures and the constructibility verdict (airmat.design.constructibility), and Ω's mesh."""
 
 import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from calib.model import kappa_max
-from design.constructibility import PAPER_KAPPA_MAX, constructibility, edge_sigma
-from design.mattress import Mattress, triangulate_mattress
+from airmat.calib.model import kappa_max
+from airmat.design.constructibility import PAPER_KAPPA_MAX, constructibility, edge_sigma
+from airmat.design.mattress import Mattress, triangulate_mattress
 
 M = Mattress(0.6, 0.5)
 

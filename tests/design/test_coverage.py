@@ -5,10 +5,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from data_synthetic.targets import cylinder
-from design.coverage import pattern_coverage
-from design.mattress import Mattress
-from design.pipeline import DesignParams, design
+from airmat.synthetic.targets import cylinder
+from airmat.design.coverage import pattern_coverage
+from airmat.design.mattress import Mattress
+from airmat.design.pipeline import DesignParams, design
 from tests.design.analytic_fields import cylinder_field, grid_uv
 
 W, H, L, MU2, MARGIN = 0.83, 0.74, 0.3, 0.05, 0.03

@@ -1,4 +1,4 @@
-"""Principal curvature per vertex (design.curvature) against exact sphere, cylinder, cone and saddle values.
+"""Principal curvature per vertex (airmat.design.curvature) against exact sphere, cylinder, cone and saddle values.
 
 The meshes' vertices lie exactly on the analytic surfaces (20 mm spacing);
 the errors come from the estimator alone. Measured (interior / rim, max abs):
@@ -9,8 +9,8 @@ saddle: 0.010 / 0.039 on up to 2; tolerances below are ~1.5-2× those.
 import numpy as np
 import pytest
 
-from data_synthetic.targets import cone, cylinder, saddle, sphere_cap
-from design.curvature import graph_curvature, principal_curvature, rim_vertices
+from airmat.synthetic.targets import cone, cylinder, saddle, sphere_cap
+from airmat.design.curvature import graph_curvature, principal_curvature, rim_vertices
 
 
 def _angle_deg(a, b):
@@ -118,8 +118,8 @@ def test_rim_better_than_libigl_on_a_relaxed_surface():
     """
     import igl
 
-    from design.mattress import Mattress
-    from design.surface import approximate_surface
+    from airmat.design.mattress import Mattress
+    from airmat.design.surface import approximate_surface
 
     surf = cone(0.3, 0.2, length=0.9, arc=0.8, spacing=0.01)
     a = approximate_surface(surf, Mattress(0.6, 0.5), spacing=0.02, progress=False)

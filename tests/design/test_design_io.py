@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from check.inflation_check import check, design_strings
-from design.design_io import OUTPUT_FILES, read_design, write_design
-from design.pipeline import DesignParams, design
-from design.presets import preset
+from airmat.check.inflation_check import check, design_strings
+from airmat.design.design_io import OUTPUT_FILES, read_design, write_design
+from airmat.design.pipeline import DesignParams, design
+from airmat.design.presets import preset
 
 
 @pytest.fixture(scope="module")

@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 
 from analytic_fields import grid_uv, saddle_field
-from design.calibration_source import default_calibration
-from design.export import (design_document, read_design_json, write_cutting_list, write_design_json,
+from airmat.design.calibration_source import default_calibration
+from airmat.design.export import (design_document, read_design_json, write_cutting_list, write_design_json,
                            write_dxf, write_preview, write_svg)
-from design.export.preview import face_sigma, preview_figure
-from design.export.dxf import GAP_MM
-from design.export.svg import LAYOUT, svg_transform
-from design.mattress import Mattress
-from design.string_lengths import string_pattern
-from design.stripes import StripeParams, trace_stripes
+from airmat.design.export.preview import face_sigma, preview_figure
+from airmat.design.export.dxf import GAP_MM
+from airmat.design.export.svg import LAYOUT, svg_transform
+from airmat.design.mattress import Mattress
+from airmat.design.string_lengths import string_pattern
+from airmat.design.stripes import StripeParams, trace_stripes
 
 MATTRESS = Mattress(0.83, 0.74, 0.07)
 REPORT = {"sigma": {"min": 0.99, "avg": 1.0, "max": 1.01}, "kappa1_per_m": {"avg": 3.0, "max": 3.0},
@@ -175,7 +175,7 @@ def test_dxf_is_byte_stable_across_hash_seeds(tmp_path):
     root = Path(__file__).resolve().parents[2]
     script = ("import sys; sys.path[:0] = [sys.argv[2], sys.argv[3]]\n"
               "from test_export import _document\n"
-              "from design.export.dxf import write_dxf\n"
+              "from airmat.design.export.dxf import write_dxf\n"
               "write_dxf(sys.argv[1], _document()[0])\n")
     data = []
     for seed in ("1", "10"):     # seeds 1 and 10 ordered ezdxf's CLASSES differently before the fix
@@ -248,7 +248,7 @@ def test_preview_figure_is_the_figure_write_preview_saves(written, tmp_path):
 def test_preview_names_every_string_and_its_sigma_scale_holds_the_report(written):
     from matplotlib.collections import LineCollection
 
-    from design.export.preview import id_font_size, sigma_limits
+    from airmat.design.export.preview import id_font_size, sigma_limits
 
     _, doc, _ = written
     rep = {**doc["report"], "sigma": {"min": 0.955, "avg": 1.0, "max": 1.01}}

@@ -1,4 +1,4 @@
-"""Ŝ in the named face's metric (design.face_metric): exact ratios on a grid, one-signed designs
+"""Ŝ in the named face's metric (airmat.design.face_metric): exact ratios on a grid, one-signed designs
 unchanged bit for bit, a saddle's Ŝ shortened where its named face carries strings, and the
 check landing closer."""
 
@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from airmat.geometry.topology import mesh_edges
-from data_synthetic.targets import cylinder, saddle
-from design.constructibility import constructibility
-from design.face_metric import face_metric, named_face
-from design.mattress import Mattress, triangulate_mattress
-from design.surface import approximate_surface
+from airmat.synthetic.targets import cylinder, saddle
+from airmat.design.constructibility import constructibility
+from airmat.design.face_metric import face_metric, named_face
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.surface import approximate_surface
 
 D = 0.07
 
@@ -129,9 +129,9 @@ def test_a_saddle_is_shortened_where_its_named_face_carries_strings(saddle_pair)
 def test_the_saddle_preset_lands_closer_in_the_face_metric():
     """The check (top face vs Ŝ, 20 mm) of the saddle preset: 2.59 % of the diagonal in Ω's metric,
     2.17 % in the face metric (measured); held to a 10 % improvement."""
-    from check.inflation_check import check
-    from design.pipeline import DesignParams, design
-    from design.presets import preset
+    from airmat.check.inflation_check import check
+    from airmat.design.pipeline import DesignParams, design
+    from airmat.design.presets import preset
 
     target, mattress = preset("saddle")
     rms = {fm: check(design(target, mattress, params=DesignParams(face_metric=fm), progress=False),

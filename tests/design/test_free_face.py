@@ -1,4 +1,4 @@
-"""design.free_face: each string's free face on Ŝ, against exact cylinders, planes and rigid motions;
+"""airmat.design.free_face: each string's free face on Ŝ, against exact cylinders, planes and rigid motions;
 Equation 3 at that span in the design, the design folder and the Monte-Carlo draws."""
 
 import numpy as np
@@ -6,12 +6,12 @@ import pytest
 from scipy.spatial import Delaunay
 from scipy.spatial.transform import Rotation
 
-from calib.model import kappa1
-from data_synthetic.targets import saddle
-from design.calibration_source import CalibrationSource
-from design.free_face import free_face_ratio
-from design.mattress import Mattress
-from design.pipeline import DesignParams, design
+from airmat.calib.model import kappa1
+from airmat.synthetic.targets import saddle
+from airmat.design.calibration_source import CalibrationSource
+from airmat.design.free_face import free_face_ratio
+from airmat.design.mattress import Mattress
+from airmat.design.pipeline import DesignParams, design
 
 D = 0.07
 
@@ -95,7 +95,7 @@ def test_a_saddle_shortens_the_strings_whose_free_face_it_compresses(saddle_desi
 
 
 def test_the_free_span_is_written_and_read_back(saddle_designs, tmp_path):
-    from design.design_io import read_design, write_design
+    from airmat.design.design_io import read_design, write_design
 
     on = saddle_designs[True]
     doc = write_design(on, tmp_path / "d")
@@ -112,7 +112,7 @@ def test_a_free_span_outside_its_dash_is_refused_naming_the_file(saddle_designs,
     import json
 
     from airmat.errors import InputError
-    from design.design_io import read_design, write_design
+    from airmat.design.design_io import read_design, write_design
 
     write_design(saddle_designs[True], tmp_path / "d")
     path = tmp_path / "d" / "design.json"
@@ -127,7 +127,7 @@ def test_a_free_span_outside_its_dash_is_refused_naming_the_file(saddle_designs,
 def test_monte_carlo_draws_use_the_span_each_length_came_from(saddle_designs):
     """With one posterior point and no scatter, the draws' median κ is each string's own κ only when
     Equation 3 is inverted at the span its length came from."""
-    from check.monte_carlo import draw
+    from airmat.check.monte_carlo import draw
 
     on = saddle_designs[True]
     dr = draw(on, 3, seed=0)
@@ -138,8 +138,8 @@ def test_monte_carlo_draws_use_the_span_each_length_came_from(saddle_designs):
 def test_the_saddle_preset_lands_closer_with_the_free_face_span():
     """The check (top face vs Ŝ, 20 mm) of the saddle preset: 23.4 mm RMS with Equation 3 at the
     dash's span, 21.2 mm at the free face's (measured); held to a 5 % improvement."""
-    from check.inflation_check import check
-    from design.presets import preset
+    from airmat.check.inflation_check import check
+    from airmat.design.presets import preset
 
     target, mattress = preset("saddle")
     rms = {ff: check(design(target, mattress, params=DesignParams(free_face_span=ff), progress=False),

@@ -5,11 +5,11 @@ import logging
 import numpy as np
 import pytest
 
-from data_synthetic.targets import cone, cylinder
-from design.calibration_source import CalibrationSource
-from design.mattress import Mattress
-from design.pipeline import DesignParams, design
-from design.surface import approximate_surface
+from airmat.synthetic.targets import cone, cylinder
+from airmat.design.calibration_source import CalibrationSource
+from airmat.design.mattress import Mattress
+from airmat.design.pipeline import DesignParams, design
+from airmat.design.surface import approximate_surface
 
 MATTRESS = Mattress(0.83, 0.74)
 POINT = CalibrationSource(L=0.3, delta=np.array([0.018]), d=np.array([0.070]), source="test",
@@ -60,7 +60,7 @@ def test_the_part_off_the_target_is_a_warning_with_share_and_distance(overhang):
 
 def test_the_warning_is_logged(caplog):
     surf = TARGETS["cylinder, arc shorter than the mattress"]()
-    with caplog.at_level(logging.WARNING, logger="design.surface"):
+    with caplog.at_level(logging.WARNING, logger="airmat.design.surface"):
         approx = approximate_surface(surf, MATTRESS, spacing=0.04, progress=False)
     assert approx.report.constructible
     assert [r.getMessage() for r in caplog.records] == [f"Ŝ of {surf.name}: {approx.report.warnings[0]}"]
@@ -71,7 +71,7 @@ def test_the_part_on_the_target_lies_on_it(overhang):
     a = r.approx
     on = a.relax.off_target == 0
     assert on.mean() > 0.5
-    from design.closest_point import MeshProjector
+    from airmat.design.closest_point import MeshProjector
 
     d = MeshProjector(a.target.vertices, a.target.faces).closest(a.xyz[on]).distance
     assert d.max() < 1e-3        # within 1 mm of S (40 mm mesh of Ŝ, 20 mm mesh of S)

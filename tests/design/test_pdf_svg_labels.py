@@ -8,8 +8,8 @@ import zlib
 import numpy as np
 import pytest
 
-from design.export.pdf import MARGIN_MM, OVERLAP_MM, PAPER_MM, pdf_bytes, tile_grid
-from design.export.svg import LAYOUT, NODE_FONT, node_label_places, page_size, svg_transform, write_svg
+from airmat.design.export.pdf import MARGIN_MM, OVERLAP_MM, PAPER_MM, pdf_bytes, tile_grid
+from airmat.design.export.svg import LAYOUT, NODE_FONT, node_label_places, page_size, svg_transform, write_svg
 
 PT = 72 / 25.4
 

@@ -5,12 +5,12 @@ import pytest
 from scipy.interpolate import LinearNDInterpolator
 
 from airmat.errors import InputError
-from calib.model import kappa1, string_length
-from data_synthetic.targets import cone, cylinder
-from design.calibration_source import CalibrationSource
-from design.mattress import Mattress
-from design.design_io import OUTPUT_FILES, write_design
-from design.pipeline import DesignParams, design
+from airmat.calib.model import kappa1, string_length
+from airmat.synthetic.targets import cone, cylinder
+from airmat.design.calibration_source import CalibrationSource
+from airmat.design.mattress import Mattress
+from airmat.design.design_io import OUTPUT_FILES, write_design
+from airmat.design.pipeline import DesignParams, design
 
 MATTRESS = Mattress(0.83, 0.74)
 #: a point calibration (the paper's values), so that l inverts Equation 3 exactly
@@ -145,7 +145,7 @@ def test_a_span_other_than_the_calibrations_is_said(cyl, caplog):
     _, at_L = cyl
     assert not any("extrapolated" in n for n in at_L.pattern.notes)
     surf = cylinder(radius=0.4, length=1.2, arc=1.0, spacing=0.05)
-    with caplog.at_level("WARNING", logger="design.pipeline"):
+    with caplog.at_level("WARNING", logger="airmat.design.pipeline"):
         r = design(surf, MATTRESS, calibration=POINT, params=DesignParams(spacing=0.04, L=0.2), progress=False)
     (note,) = [n for n in r.pattern.notes if "extrapolated" in n]
     assert "L = 200 mm" in note and "L = 300 mm" in note and "airmat validate --L-mm" in note

@@ -1,4 +1,4 @@
-"""The U_A relaxation of Ω onto a target (design.relax, design.placement)."""
+"""The U_A relaxation of Ω onto a target (airmat.design.relax, airmat.design.placement)."""
 
 import logging
 
@@ -7,13 +7,13 @@ import pytest
 from scipy.spatial import cKDTree
 
 from airmat.errors import ConvergenceError, InputError
-from data_synthetic.targets import cylinder
-from design.closest_point import MeshProjector
-from design.constructibility import edge_sigma
-from design.mattress import Mattress, triangulate_mattress
-from design.placement import auto_placement, candidate_placements, placement_matrix
-from design.relax import relax_to_target, umbrella_operator
-from design.target import Target
+from airmat.synthetic.targets import cylinder
+from airmat.design.closest_point import MeshProjector
+from airmat.design.constructibility import edge_sigma
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.placement import auto_placement, candidate_placements, placement_matrix
+from airmat.design.relax import relax_to_target, umbrella_operator
+from airmat.design.target import Target
 
 R = 0.3
 MATTRESS = Mattress(0.5, 0.4)
@@ -99,7 +99,7 @@ def test_placement_must_be_rigid(bad):
 
 
 def test_unconverged_is_reported_and_strict_raises(cyl, mesh, caplog):
-    with caplog.at_level(logging.WARNING, logger="design.relax"):
+    with caplog.at_level(logging.WARNING, logger="airmat.design.relax"):
         res = relax_to_target(*mesh, cyl, max_iter=3, levels=0, progress=False)
     assert not res.converged and res.n_iter == 3 and "not converged" in res.message
     assert any("not converged" in r.message for r in caplog.records)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from design.mattress import Mattress
-from design.pattern import Dash, Pattern, TensionString
-from design.retie import retie_plan
+from airmat.design.mattress import Mattress
+from airmat.design.pattern import Dash, Pattern, TensionString
+from airmat.design.retie import retie_plan
 
 G = 0.02
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from design.export.rhino import FACE_FAMILIES, STRING_KEYS, lift_to_surface, write_3dm
+from airmat.design.export.rhino import FACE_FAMILIES, STRING_KEYS, lift_to_surface, write_3dm
 from test_export import _cylinder_surface, _document
 
 rhino3dm = pytest.importorskip("rhino3dm")
@@ -114,7 +114,7 @@ def test_inflated_shapes_on_hidden_layers(tmp_path):
 
 
 def test_monte_carlo_band_on_a_hidden_layer_with_vertex_colours(tmp_path, design_3dm):
-    from design.export.rhino import band_colours
+    from airmat.design.export.rhino import band_colours
 
     doc, _ = _document()
     xyz, uv, faces = _cylinder_surface()
@@ -138,7 +138,7 @@ def test_monte_carlo_band_on_a_hidden_layer_with_vertex_colours(tmp_path, design
 
 
 def test_band_colours_of_constant_values_are_the_low_end():
-    from design.export.rhino import band_colours
+    from airmat.design.export.rhino import band_colours
 
     c, lo, hi = band_colours(np.full(4, 3.0))
     assert (lo, hi) == (3.0, 3.0) and c.tolist() == [[68, 1, 84]] * 4

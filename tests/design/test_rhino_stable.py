@@ -1,4 +1,4 @@
-"""design.export.rhino_stable: the same model gives the same .3dm bytes, whenever and wherever it is written."""
+"""airmat.design.export.rhino_stable: the same model gives the same .3dm bytes, whenever and wherever it is written."""
 
 import base64
 import os
@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from airmat.errors import InputError
-from design.export.rhino import rhino_model, write_3dm
-from design.export.rhino_stable import Malformed3dm, fixed_time, normalize_3dm, stable_3dm_bytes
+from airmat.design.export.rhino import rhino_model, write_3dm
+from airmat.design.export.rhino_stable import Malformed3dm, fixed_time, normalize_3dm, stable_3dm_bytes
 from test_export import _cylinder_surface, _document
 
 rhino3dm = pytest.importorskip("rhino3dm")
@@ -164,7 +164,7 @@ def test_other_processes_and_hash_seeds_give_the_same_bytes(tmp_path, monkeypatc
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
     here = stable_3dm_bytes(_model())
     script = ("import sys; from pathlib import Path; from test_rhino_stable import _model; "
-              "from design.export.rhino_stable import stable_3dm_bytes; "
+              "from airmat.design.export.rhino_stable import stable_3dm_bytes; "
               "Path(sys.argv[1]).write_bytes(stable_3dm_bytes(_model()))")
     env = {**os.environ, "PYTHONHASHSEED": "12345",
            "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "tests" / "design")])}

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from analytic_fields import cylinder_field, frame, grid_uv, saddle_field, sphere_like_field
-from calib.model import kappa1, kappa_max, string_length
-from design.calibration_source import CalibrationSource, default_calibration
-from design.field import MattressField
-from design.pattern import Dash
-from design.string_lengths import dash_kappa, length_quantiles, string_pattern
-from design.stripes import StripeParams, trace_stripes
+from airmat.calib.model import kappa1, kappa_max, string_length
+from airmat.design.calibration_source import CalibrationSource, default_calibration
+from airmat.design.field import MattressField
+from airmat.design.pattern import Dash
+from airmat.design.string_lengths import dash_kappa, length_quantiles, string_pattern
+from airmat.design.stripes import StripeParams, trace_stripes
 
 P = StripeParams()
 CAL = default_calibration(seed=0, n_samples=500)

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from airmat.errors import InputError
 from analytic_fields import (concentric_field, cylinder_field, linear_cylinder_field, saddle_field,
                              sphere_like_field)
-from design.stripes import StripeParams, cut_dashes, trace_stripes
+from airmat.design.stripes import StripeParams, cut_dashes, trace_stripes
 
 P = StripeParams()  # L 0.30, mu1 0.40, mu2 0.10, margin 0.03, step 0.01
 

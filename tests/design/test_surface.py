@@ -1,4 +1,4 @@
-"""The surface side end to end (design.surface): target -> Ŝ -> curvature -> field on Ω.
+"""The surface side end to end (airmat.design.surface): target -> Ŝ -> curvature -> field on Ω.
 
 Developable targets must give σ ≈ 1, κ2 ≈ 0 and κ1 equal to the analytic
 curvature at the corresponding points. Measured at 25 mm spacing (default
@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from design.presets import preset
-from data_synthetic.targets import cone, cylinder, sphere_cap
-from design.curvature import rim_vertices
-from design.field import MattressField
-from design.mattress import Mattress
-from design.surface import approximate_surface, mattress_field
-from design.target import Target
+from airmat.design.presets import preset
+from airmat.synthetic.targets import cone, cylinder, sphere_cap
+from airmat.design.curvature import rim_vertices
+from airmat.design.field import MattressField
+from airmat.design.mattress import Mattress
+from airmat.design.surface import approximate_surface, mattress_field
+from airmat.design.target import Target
 
 M = Mattress(0.6, 0.5)
 

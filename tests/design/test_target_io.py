@@ -1,12 +1,12 @@
-"""Loading and validating target meshes (design.target)."""
+"""Loading and validating target meshes (airmat.design.target)."""
 
 import numpy as np
 import pytest
 import trimesh
 
 from airmat.errors import InputError
-from design.mattress import Mattress
-from design.target import Target, check_scale, load_target
+from airmat.design.mattress import Mattress
+from airmat.design.target import Target, check_scale, load_target
 
 SMALL = Mattress(0.83, 0.74)
 

@@ -1,4 +1,4 @@
-"""A target is one open sheet (design.target_pieces): several sheets and closed solids are refused."""
+"""A target is one open sheet (airmat.design.target_pieces): several sheets and closed solids are refused."""
 
 import numpy as np
 import pytest
@@ -6,9 +6,9 @@ import trimesh
 from scipy.spatial.distance import cdist
 
 from airmat.errors import InputError
-from design.mattress import Mattress
-from design.target import load_target
-from design.target_pieces import check_one_sheet, sheet_pieces
+from airmat.design.mattress import Mattress
+from airmat.design.target import load_target
+from airmat.design.target_pieces import check_one_sheet, sheet_pieces
 
 SMALL = Mattress(0.83, 0.74)
 

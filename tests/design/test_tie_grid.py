@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from airmat.errors import InputError
-from design.pattern import Dash
-from design.tie_grid import grid_node, snap_dashes
+from airmat.design.pattern import Dash
+from airmat.design.tie_grid import grid_node, snap_dashes
 
 W, H, G = 0.83, 0.74, 0.02
 

@@ -1,4 +1,4 @@
-"""Carrying Ŝ's curvature field onto Ω (design.transfer).
+"""Carrying Ŝ's curvature field onto Ω (airmat.design.transfer).
 
 Ŝ here is Ω wrapped exactly (isometrically) onto analytic surfaces, so the
 expected field on Ω is known in closed form.
@@ -7,10 +7,10 @@ expected field on Ω is known in closed form.
 import numpy as np
 import pytest
 
-from design.curvature import principal_curvature
-from design.field import MattressField
-from design.mattress import Mattress, triangulate_mattress
-from design.transfer import direction_weight, face_jacobians, transfer_to_mattress
+from airmat.design.curvature import principal_curvature
+from airmat.design.field import MattressField
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.transfer import direction_weight, face_jacobians, transfer_to_mattress
 
 R = 0.4
 M = Mattress(0.6, 0.5)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from inflation.assembly import build_assembler
+from airmat.inflation.assembly import build_assembler
 
 
 def _reference(pattern, blocks, n_vertices, fixed):

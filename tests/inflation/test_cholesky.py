@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from inflation.cholesky import ShiftedCholesky, nested_dissection
+from airmat.inflation.cholesky import ShiftedCholesky, nested_dissection
 
 
 def _laplacian_blocks(n_side: int, rng) -> tuple:
@@ -64,14 +64,14 @@ def test_pattern_without_its_diagonal_is_refused():
     ({"sse2", "avx"}, None),
 ])
 def test_openblas_coretype_follows_the_cpu_flags(flags, expected):
-    from inflation.cholesky import openblas_coretype
+    from airmat.inflation.cholesky import openblas_coretype
 
     assert openblas_coretype(flags) == expected
 
 
 _CORENAME = """
 import os
-import inflation.cholesky as c
+import airmat.inflation.cholesky as c
 print(c.cvxopt_blas_kernels() or "no-bundled-openblas", os.environ.get("OPENBLAS_CORETYPE", "-"),
       c.openblas_coretype())
 """

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import inflation.cholesky as cholesky
-from inflation.cholesky import ShiftedCholesky
-from inflation.cholmod_block import ALIGN, MIN_SPLIT, available, column_blocks, solve_many
+import airmat.inflation.cholesky as cholesky
+from airmat.inflation.cholesky import ShiftedCholesky
+from airmat.inflation.cholmod_block import ALIGN, MIN_SPLIT, available, column_blocks, solve_many
 
 
 def _spd(n_side: int, seed: int):
@@ -107,8 +107,8 @@ def test_the_split_is_the_same_bits_with_other_kernel_families(coretype):
         import numpy as np
         sys.path[:0] = [sys.argv[1], sys.argv[2]]
         from test_cholmod_block import _spd
-        from inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels
-        from inflation.cholmod_block import column_blocks, solve_many
+        from airmat.inflation.cholesky import ShiftedCholesky, cvxopt_blas_kernels
+        from airmat.inflation.cholmod_block import column_blocks, solve_many
         h, groups, rng = _spd(70, 3)
         c = ShiftedCholesky(h, groups)
         assert c.factor(h, 0.25)

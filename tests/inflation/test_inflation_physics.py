@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import pdist, squareform
 
-from check.compare import surface_at
-from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters
-from inflation.simulate import inflate
-from inflation.strings import StringSet
+from airmat.check.compare import surface_at
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.model import Parameters
+from airmat.inflation.simulate import inflate
+from airmat.inflation.strings import StringSet
 
 W, H, D = 0.6, 0.4, 0.07
 

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from inflation.mesh import build_mattress_mesh
-from inflation.prolong import coarse_resolutions, prolong
-from inflation.simulate import inflate
-from inflation.strings import StringSet
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.prolong import coarse_resolutions, prolong
+from airmat.inflation.simulate import inflate
+from airmat.inflation.strings import StringSet
 
 
 def test_prolongation_reproduces_any_affine_map_of_the_faces():

@@ -7,10 +7,10 @@ import pytest
 def test_a_failing_run_in_a_worker_reaches_the_caller():
     """strict=True: a run that cannot converge raises ConvergenceError, from the worker process too."""
     from airmat.errors import ConvergenceError
-    from inflation.mesh import build_mattress_mesh
-    from inflation.model import Parameters
-    from inflation.simulate import inflate_many
-    from inflation.strings import StringSet
+    from airmat.inflation.mesh import build_mattress_mesh
+    from airmat.inflation.model import Parameters
+    from airmat.inflation.simulate import inflate_many
+    from airmat.inflation.strings import StringSet
 
     mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
     s = StringSet(np.array([[0.15, 0.15]]), np.array([[0.45, 0.15]]), np.array([True]), np.array([0.12]), ("s",))
@@ -20,9 +20,9 @@ def test_a_failing_run_in_a_worker_reaches_the_caller():
 
 def test_the_executor_gives_the_serial_results_byte_for_byte():
     """Two local Dask workers: the same Inflation arrays, bit for bit, as one after the other; the mesh is the caller's."""
-    from inflation.mesh import build_mattress_mesh
-    from inflation.simulate import inflate_many
-    from inflation.strings import StringSet
+    from airmat.inflation.mesh import build_mattress_mesh
+    from airmat.inflation.simulate import inflate_many
+    from airmat.inflation.strings import StringSet
 
     mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
     sets = [StringSet(np.array([[0.15, 0.15]]), np.array([[0.45, 0.15]]), np.array([True]), np.array([r]), ("s",))
@@ -42,7 +42,7 @@ def test_one_run_does_not_import_dask():
     import sys
 
     code = ("import numpy as np, sys\n"
-            "from inflation.executor import map_shared\n"
+            "from airmat.inflation.executor import map_shared\n"
             "assert map_shared(lambda s, x: s + x, 1, [1], workers=4) == [2]\n"
             "assert map_shared(lambda s, x: s + x, 1, [1, 2], workers=1) == [2, 3]\n"
             "print('distributed' in sys.modules, 'dask' in sys.modules)\n")
@@ -56,7 +56,7 @@ def test_a_local_cluster_does_not_need_port_8787(recwarn):
     import operator
     import socket
 
-    from inflation.executor import map_shared
+    from airmat.inflation.executor import map_shared
 
     holder = socket.socket()
     try:
@@ -72,8 +72,8 @@ def test_a_local_cluster_does_not_need_port_8787(recwarn):
 
 
 def _two_lengths():
-    from inflation.mesh import build_mattress_mesh
-    from inflation.strings import StringSet
+    from airmat.inflation.mesh import build_mattress_mesh
+    from airmat.inflation.strings import StringSet
 
     mesh = build_mattress_mesh(0.6, 0.3, 0.07, resolution=0.05)
     sets = [StringSet(np.array([[0.15, 0.15]]), np.array([[0.45, 0.15]]), np.array([True]), np.array([r]), ("s",))
@@ -83,7 +83,7 @@ def _two_lengths():
 
 def test_inflate_from_carries_an_equilibrium_on_to_other_strings():
     """A refined design's path (inflate_from): Newton from an equilibrium, to the full tolerance, on its mesh."""
-    from inflation.simulate import INFLATE_TOL, inflate, inflate_from
+    from airmat.inflation.simulate import INFLATE_TOL, inflate, inflate_from
 
     mesh, (s1, s2) = _two_lengths()
     start = inflate(mesh, s1)
@@ -102,7 +102,7 @@ def test_inflate_from_carries_an_equilibrium_on_to_other_strings():
 
 def test_inflate_many_from_a_start_is_inflate_from_each():
     """inflate_many(start=...): every run carried on from the same equilibrium, serial or on Dask workers."""
-    from inflation.simulate import inflate, inflate_from, inflate_many
+    from airmat.inflation.simulate import inflate, inflate_from, inflate_many
 
     mesh, (s1, s2) = _two_lengths()
     start = inflate(mesh, s1)

@@ -5,14 +5,14 @@ import pytest
 import trimesh
 
 from airmat.errors import ConvergenceError, InputError
-from inflation.assembly import build_assembler
-from inflation.energy import (block_pattern, energy, energy_and_gradient, energy_gradient_volume, hessian_blocks,
+from airmat.inflation.assembly import build_assembler
+from airmat.inflation.energy import (block_pattern, energy, energy_and_gradient, energy_gradient_volume, hessian_blocks,
                               pressure_forces, smoothing_blocks, spring_profile)
-from inflation.mesh import build_mattress_mesh, locate
-from inflation.model import Parameters, build_model
-from inflation.simulate import inflate
-from inflation.solver import rigid_pins, solve
-from inflation.strings import StringSet, check_resolution
+from airmat.inflation.mesh import build_mattress_mesh, locate
+from airmat.inflation.model import Parameters, build_model
+from airmat.inflation.simulate import inflate
+from airmat.inflation.solver import rigid_pins, solve
+from airmat.inflation.strings import StringSet, check_resolution
 
 W, H, D = 0.5, 0.3, 0.07
 
@@ -146,7 +146,7 @@ class _CountingSystem:
 @pytest.mark.parametrize("rule, calls, mu", [("shift", 3, 8.0), ("backtrack", 1, 2.0)])
 def test_a_refused_step_is_shifted_and_refactorized_or_halved_without_a_new_factorization(monkeypatch, rule, calls,
                                                                                            mu):
-    import inflation.solver as sv
+    import airmat.inflation.solver as sv
 
     # U(x) = (x - 1)² + 10 x⁴ from x = 0 with the Hessian of the quadratic part (2): the unshifted step (to
     # x = 1) raises U (11 > 1). "shift" factorizes again with the shift at its floor 0.5 (to x = 0.8, U = 4.1,
@@ -173,7 +173,7 @@ def test_a_refused_step_is_shifted_and_refactorized_or_halved_without_a_new_fact
 
 
 def test_both_rules_for_a_refused_step_land_on_the_same_equilibrium_of_one_bend(mesh, monkeypatch):
-    import inflation.solver as sv
+    import airmat.inflation.solver as sv
 
     strings = StringSet(np.array([[0.05, 0.15]]), np.array([[0.45, 0.15]]), np.array([False]), np.array([0.3]))
     shifted = inflate(mesh, strings)

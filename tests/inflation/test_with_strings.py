@@ -1,13 +1,13 @@
-"""inflation.model: with_strings is build_model with only the external strings rebuilt."""
+"""airmat.inflation.model: with_strings is build_model with only the external strings rebuilt."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from inflation.mesh import build_mattress_mesh
-from inflation.model import Parameters, build_model, with_strings
-from inflation.strings import StringSet
+from airmat.inflation.mesh import build_mattress_mesh
+from airmat.inflation.model import Parameters, build_model, with_strings
+from airmat.inflation.strings import StringSet
 
 
 def _strings(rest):

@@ -10,12 +10,12 @@ from airmat.units import MM
 @pytest.fixture(scope="session")
 def run_objects(tmp_path_factory):
     """(Calibration, DesignResult, DesignCheck) of one small seeded run, as the demo makes them."""
-    from calib.calibrate import calibrate
-    from check.inflation_check import check
-    from data_synthetic.calibration_set import calibration_set
-    from design.calibration_source import from_calibration
-    from design.pipeline import DesignParams, design
-    from design.presets import preset
+    from airmat.calib.calibrate import calibrate
+    from airmat.check.inflation_check import check
+    from airmat.synthetic.calibration_set import calibration_set
+    from airmat.design.calibration_source import from_calibration
+    from airmat.design.pipeline import DesignParams, design
+    from airmat.design.presets import preset
 
     cs = calibration_set(tmp_path_factory.mktemp("synth"), n_points=20000, seed=0)
     cal = calibrate(cs.manifest, seed=0)
@@ -28,7 +28,7 @@ def run_objects(tmp_path_factory):
 @pytest.fixture(scope="session")
 def uncalibrated_design(run_objects):
     """The same design with the paper's (uncalibrated) values."""
-    from design.calibration_source import default_calibration
+    from airmat.design.calibration_source import default_calibration
 
     _, result, _ = run_objects
     return dataclasses.replace(result, calibration=default_calibration(seed=0))

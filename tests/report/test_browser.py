@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from report.page import write_report
+from airmat.report.page import write_report
 from report_browser import open_page
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 
-from design.mattress import Mattress, triangulate_mattress
-from report.mesh import MAX_DISPLAY_VERTICES, display_grid
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.report.mesh import MAX_DISPLAY_VERTICES, display_grid
 
 
 def test_a_large_grid_is_decimated_to_the_budget_keeping_its_corners():

@@ -5,8 +5,8 @@ import re
 
 import numpy as np
 
-from design.mattress import Mattress, triangulate_mattress
-from report.page import REPORT_NAME, report_html, write_report
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.report.page import REPORT_NAME, report_html, write_report
 
 PLOTS = ("calibration-curve", "design-pattern", "design-surface", "check-overlay", "check-curvature")
 
@@ -93,7 +93,7 @@ class _Dev:
 
 def _with_monte_carlo(checked, *, n=40, seed=3):
     """The check with a Monte-Carlo result summarized from made-up per-vertex deviations (seeded)."""
-    from check.monte_carlo import MonteCarloDraws, summarize
+    from airmat.check.monte_carlo import MonteCarloDraws, summarize
 
     rng = np.random.default_rng(seed)
     k, nv = len(checked.design.pattern.strings), len(checked.design.approx.xyz)
@@ -107,7 +107,7 @@ def _with_monte_carlo(checked, *, n=40, seed=3):
 
 
 def test_the_monte_carlo_band_and_its_statistics_are_on_the_page(run_objects):
-    from report.mesh import display_grid
+    from airmat.report.mesh import display_grid
 
     _, result, checked = run_objects
     assert 'id="check-band"' not in report_html(check=checked)          # no Monte-Carlo, no band
@@ -116,7 +116,7 @@ def test_the_monte_carlo_band_and_its_statistics_are_on_the_page(run_objects):
     html = report_html(check=with_mc)
     assert html.count('Plotly.newPlot("check-band"') == 1
     # the figure's colour is the 95 % quantile (mm) at the displayed vertices
-    from report.check import band_figure, monte_carlo_table
+    from airmat.report.check import band_figure, monte_carlo_table
 
     trace = band_figure(with_mc)["data"][0]
     keep, _ = display_grid(result.approx.uv, result.approx.faces)
@@ -162,7 +162,7 @@ def test_a_refined_design_says_what_the_refinement_did(run_objects):
 
 
 def test_a_refined_designs_check_says_where_its_runs_started(run_objects):
-    # a refined design's runs are carried on from its open-loop equilibrium (check.inflation_check): the page says so
+    # a refined design's runs are carried on from its open-loop equilibrium (airmat.check.inflation_check): the page says so
     _, _, chk = run_objects
     base = dataclasses.replace(chk.runs["median"].inflation, n_iter=87)
     html = report_html(check=dataclasses.replace(chk, open_loop=base))

@@ -1,6 +1,6 @@
 import pytest
 
-from report.table import SORT_JS, html_table
+from airmat.report.table import SORT_JS, html_table
 
 
 def test_cells_are_escaped_and_rows_checked():
