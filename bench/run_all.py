@@ -1,10 +1,13 @@
 """Run every benchmark under bench/ in one go and collect their Markdown tables.
 
 Usage: ``python bench/run_all.py [--quick]`` (``make bench``). Each benchmark is
-a script printing a Markdown table (all of them but ``bench_free_face.py``, whose
-every run names a mode and is given in the README); the tables are written to
+a script printing a Markdown table; the tables are written to
 ``bench/results/<name>.md`` and echoed. Run it on a quiet machine: the numbers
-in the README were produced this way.
+in the README were produced this way. ``--quick`` passes ``--quick`` to every
+benchmark: a smoke run on tiny inputs (one preset at a coarse resolution, one
+repeat) through the same code path, a few seconds each
+(``tests/test_bench_quick.py`` runs them so). The experiments whose answer is in
+the code were retired; their results: ``docs/decisions-bench.md``.
 """
 
 from __future__ import annotations
@@ -18,17 +21,13 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py", "bench_design.py",
            "bench_density.py", "bench_coverage.py", "bench_dash_kappa.py", "bench_deviation_map.py",
-           "bench_specimen.py", "bench_face_strain.py", "bench_inflation.py", "bench_check.py",
-           "bench_surfaces.py", "bench_refine.py", "bench_monte_carlo.py", "bench_startup.py",
-           "bench_check_subset.py", "bench_family_gain.py", "bench_newton_rule.py", "bench_assembly.py",
-           "bench_relax_compression.py", "bench_design_surface.py", "bench_jacobian_solve.py", "bench_mid_metric.py"]
-#: the benchmarks that take --quick (small sizes); the others run as they are
-QUICK = {"bench_cholesky.py", "bench_inflation.py", "bench_check.py", "bench_assembly.py", "bench_jacobian_solve.py"}
+           "bench_specimen.py", "bench_inflation.py", "bench_check.py", "bench_refine.py", "bench_monte_carlo.py",
+           "bench_startup.py", "bench_assembly.py", "bench_jacobian_solve.py"]
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="pass --quick to the benchmarks that take it (small sizes)")
+    ap.add_argument("--quick", action="store_true", help="pass --quick to every benchmark (tiny inputs, a few seconds each)")
     ap.add_argument("names", nargs="*", help="only these benchmarks (file names)")
     args = ap.parse_args(argv)
     out = HERE / "results"
@@ -40,7 +39,7 @@ def main(argv=None) -> int:
             print(f"## {name}: missing", flush=True)
             failed.append(name)
             continue
-        cmd = [sys.executable, str(script)] + (["--quick"] if args.quick and name in QUICK else [])
+        cmd = [sys.executable, str(script)] + (["--quick"] if args.quick else [])
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=HERE.parent)
         dt = time.perf_counter() - t0

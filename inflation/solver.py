@@ -53,8 +53,8 @@ MU_UP = 4.0
 
 #: what a refused step does: ``"shift"`` (the rule in use) raises the shift by ``MU_UP`` and factorizes
 #: again; ``"backtrack"`` halves the same step (no new factorization) and leaves the raised shift to the
-#: next iteration. An experiment, not the default: ``bench/bench_newton_rule.py`` runs both side by side
-#: (README, Inflation): with ``MU_UP = 2`` every preset's inflation lands on the same equilibrium 15-36 %
+#: next iteration. An experiment, not the default: bench_newton_rule (retired; docs/decisions-bench.md)
+#: ran both side by side: with ``MU_UP = 2`` every preset's inflation lands on the same equilibrium 15-36 %
 #: sooner, but the refinement's Gauss-Newton path then changes, and so would every number measured.
 REFUSED_STEP = "shift"
 
