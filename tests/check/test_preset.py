@@ -14,7 +14,8 @@ def test_vault1_inflates_within_3_percent_of_its_diagonal():
     result = design(target, mattress, progress=False)
     run = check(result, resolution=0.05, envelope=False).runs["median"]
     assert run.inflation.converged
-    # measured 2.6 % (26 mm RMS on the 830 x 740 mm mattress) at 50 mm; 3 % is the acceptance line
+    # 3 % is an acceptance line, not a measurement: measured 1.2 % (12 mm RMS on the 830 x 740 mm
+    # mattress) at 50 mm, 2.6 % with an earlier designer
     assert run.deviation.rms_pct_diag < 3.0
     # the strongly bent dashes (|kappa| > 1 /m) bend the right way, by the right order of magnitude
     kappa = np.array([s.kappa for s in result.pattern.strings])

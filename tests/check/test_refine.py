@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from refine_case import OFF, RESOLUTION, TRUE_SIM, off_case, small_design  # noqa: E402
+from refine_case import (RESOLUTION, TRUE_SIM, moves_toward_the_true_lengths, off_case,  # noqa: E402
+                         small_design)
 
 from airmat.errors import InputError  # noqa: E402
 from airmat.check.inflation_check import check, design_strings, open_loop_strings  # noqa: E402
@@ -31,9 +32,9 @@ def test_refinement_lowers_the_deviation_and_the_check_reproduces_it(case, refin
     r = refined
     assert r.iterations == 6 and r.deviation_after.rms < 0.6 * r.deviation_before.rms
     assert r.objective_after < r.objective_before
-    # the lengths move toward the ones that made Ŝ (a string's effect is partly taken over by its
-    # neighbours', so not each one on its own); measured 0.65 of the start error after 6 iterations
-    assert np.linalg.norm(r.l_simulated - TRUE_SIM) < 0.75 * np.linalg.norm(OFF)
+    # the lengths move toward the ones that made Ŝ (refine_case.moves_toward_the_true_lengths: closer as a
+    # vector and in their common part; not a factor, which is the problem's conditioning, not a promise)
+    moves_toward_the_true_lengths(r.l_simulated)
     # the check of the refined design (the open-loop equilibrium from the flat mattress, carried on to the
     # refined lengths, as the refinement went) measures what the refinement promised
     c = check(r.design, resolution=RESOLUTION, envelope=False)

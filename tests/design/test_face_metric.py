@@ -127,8 +127,14 @@ def test_a_saddle_is_shortened_where_its_named_face_carries_strings(saddle_pair)
 
 @pytest.mark.slow
 def test_the_saddle_preset_lands_closer_in_the_face_metric():
-    """The check (top face vs Ŝ, 20 mm) of the saddle preset: 2.59 % of the diagonal in Ω's metric,
-    2.17 % in the face metric (measured); held to a 10 % improvement."""
+    """The check (top face vs Ŝ, 20 mm) of the saddle preset lands closer to Ŝ in the face metric.
+
+    Closer is the promise; by how much is not: it depends on how many of the saddle's strings the shorter
+    face moves, which no design argument gives (measured 2.59 -> 2.17 % of the diagonal, later 2.58 ->
+    1.98 %). The open-loop check is deterministic to round-off (the mirror test in
+    tests/inflation/test_inflation_physics.py: 1e-11 m), and the open loop moves smoothly with the lengths
+    (their 0.01 mm rounding moves the face by about as much): a decrease beyond the 0.1 mm margin is the
+    face metric's doing."""
     from airmat.check.inflation_check import check
     from airmat.design.pipeline import DesignParams, design
     from airmat.design.presets import preset
@@ -136,7 +142,7 @@ def test_the_saddle_preset_lands_closer_in_the_face_metric():
     target, mattress = preset("saddle")
     rms = {fm: check(design(target, mattress, params=DesignParams(face_metric=fm), progress=False),
                      envelope=False).runs["median"].deviation.rms for fm in (True, False)}
-    assert rms[True] < 0.9 * rms[False]
+    assert rms[True] < rms[False] - 1e-4
 
 
 def test_curvature_beyond_reach_shortens_only_as_much_as_a_string_can(grid):

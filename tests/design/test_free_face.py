@@ -136,12 +136,19 @@ def test_monte_carlo_draws_use_the_span_each_length_came_from(saddle_designs):
 
 @pytest.mark.slow
 def test_the_saddle_preset_lands_closer_with_the_free_face_span():
-    """The check (top face vs Ŝ, 20 mm) of the saddle preset: 23.4 mm RMS with Equation 3 at the
-    dash's span, 21.2 mm at the free face's (measured); held to a 5 % improvement."""
+    """The check (top face vs Ŝ, 20 mm) of the saddle preset lands closer to Ŝ with Equation 3 inverted at
+    the free face's span than at the dash's.
+
+    Closer is the promise; by how much is not: it depends on how much the free face's spans differ from
+    the dashes' on this saddle, which no design argument gives (measured 23.4 -> 21.2 mm RMS). The
+    open-loop check is deterministic to round-off (the mirror test in
+    tests/inflation/test_inflation_physics.py: 1e-11 m), and the open loop moves smoothly with the lengths
+    (their 0.01 mm rounding moves the face by about as much): a decrease beyond the 0.1 mm margin is the
+    free face span's doing."""
     from airmat.check.inflation_check import check
     from airmat.design.presets import preset
 
     target, mattress = preset("saddle")
     rms = {ff: check(design(target, mattress, params=DesignParams(free_face_span=ff), progress=False),
                      envelope=False).runs["median"].deviation.rms for ff in (True, False)}
-    assert rms[True] < 0.95 * rms[False]
+    assert rms[True] < rms[False] - 1e-4
