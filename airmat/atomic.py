@@ -54,7 +54,6 @@ import stat
 import sys
 import tempfile
 import threading
-import time
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -68,9 +67,6 @@ except ImportError:  # pragma: no cover - Windows
 __all__ = ["staged_dir", "check_out_dir", "sweep_stale", "atomic_write_bytes", "atomic_write_text"]
 
 log = logging.getLogger(__name__)
-
-#: test hook: seconds to sleep just before and just after the swap (kill tests aim at that window)
-PUBLISH_DELAY_ENV = "AIRMAT_TEST_PUBLISH_DELAY"
 
 
 def _umask() -> int:
@@ -240,12 +236,6 @@ def _signals_deferred(signums: Iterable[int] = (signal.SIGINT, signal.SIGTERM)) 
             signal.raise_signal(caught[0])
 
 
-def _test_delay() -> None:
-    delay = os.environ.get(PUBLISH_DELAY_ENV)
-    if delay:
-        time.sleep(float(delay))
-
-
 # ------------------------------------------------------------ checks
 
 def _protected(out: Path) -> str | None:
@@ -346,16 +336,19 @@ def _swap(tmp: Path, out: Path, *, replace: bool) -> None:
     os.rename(aside, tmp)
 
 
+def _swap_uninterrupted(tmp: Path, out: Path, *, replace: bool) -> None:
+    """:func:`_swap` with SIGINT/SIGTERM deferred: Ctrl-C cannot land between its steps."""
+    with _signals_deferred():
+        _swap(tmp, out, replace=replace)
+
+
 def _publish(tmp: Path, out: Path, parent: Path) -> None:
     _prepare(tmp, out)
     with _locked(parent):  # between looking at out and swapping, no other run may publish
         replace = os.path.lexists(out)
         if replace and not out.is_dir():  # made a file while we computed
             raise InputError("exists and is not a folder; give a folder for the output", path=out)
-        _test_delay()
-        with _signals_deferred():
-            _swap(tmp, out, replace=replace)
-        _test_delay()
+        _swap_uninterrupted(tmp, out, replace=replace)
 
 
 @contextlib.contextmanager

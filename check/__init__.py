@@ -10,8 +10,8 @@ Public API (SI units: metres, 1/m):
   named face (:func:`airmat.design.face_metric.length_keeping_face`: the face opposite the strings) (``compare``).
 - :func:`write_check` -- ``inflate.json``, ``inflated.ply``, ``inflated.3dm``, ``deviation.png`` (``report``).
 - :func:`refine` -- the string lengths refined through the inflated equilibrium (adjoint
-  Gauss–Newton), a refined DesignResult and its ``refine`` block (``refinement``, ``adjoint``,
-  ``refine_objective``).
+  Gauss–Newton), a refined DesignResult and its ``refine`` block, tuned by :class:`RefineOptions`
+  (``refinement``, ``gauss_newton``, ``adjoint``, ``refine_objective``).
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
 - :func:`length_map` -- real string length -> simulated rest length: l + 2Δ (:class:`LengthMap`) or
   calibrated on simulated specimens (:class:`CalibratedLengthMap`, cached; ``length_map``, ``calibrated_map``).
@@ -29,7 +29,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "length_map": ["LengthMap", "CalibratedLengthMap", "length_map"],
     "monte_carlo": ["MonteCarloDraws", "MonteCarloResult"],
     "report": ["write_check"],
-    "refinement": ["Refinement", "refine", "check_refinable"],
+    "refinement": ["Refinement", "RefineOptions", "refine", "check_refinable"],
     "refined_design": ["refined_design", "REFINE_FLAG"],
     "adjoint": ["rest_derivative", "factor_equilibrium", "equilibrium_jacobian", "adjoint_gradient"],
     "refine_objective": ["face_operator", "face_fit"],

@@ -10,20 +10,23 @@ iteration then starts from the damping that worked (the usual Levenberg–Marqua
 memory; shrunk at once, its first trials kept failing again, each a trial equilibrium
 run to its Newton budget). Stopping rule: over an accepted step, a decrease of the
 RMS below ``rms_tol`` or a relative decrease of the objective below ``ftol``;
-or a step shorter than ``xtol``. SI units (m).
+or a step shorter than ``xtol``. SI units (m). The outcome is a
+:class:`GaussNewtonResult`.
 """
 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
 from airmat.progress import progress
 from airmat.check.damped_step import damped_step, reduce_least_squares
 from airmat.check.trial_equilibrium import TrialProblem
+from airmat.summary import Summarized
 
-__all__ = ["gauss_newton", "LAM_DOWN", "ACCEPT", "HOLD_AFTER_RETRY"]
+__all__ = ["gauss_newton", "GaussNewtonResult", "LAM_DOWN", "ACCEPT", "HOLD_AFTER_RETRY"]
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +49,50 @@ ACCEPT = 0.25
 HOLD_AFTER_RETRY = True
 
 
+@dataclass(frozen=True, repr=False)
+class GaussNewtonResult(Summarized):
+    """The outcome of :func:`gauss_newton`.
+
+    Attributes
+    ----------
+    lengths : ndarray of shape (k,)
+        The best simulated rest lengths l* found: those of the last accepted step (m).
+    xyz : ndarray of shape (n, 3)
+        The equilibrium at ``lengths``: the last accepted trial's (m).
+    damping : float
+        The Levenberg–Marquardt damping when the loop stopped (dimensionless); a run that goes
+        on from here starts from it.
+    converged : bool
+        Stopped by the stopping rule (a small step, or a small decrease over an accepted step).
+    message : str
+        How the loop stopped.
+    iterations : int
+        Accepted steps (a caller that chains runs adds the earlier runs' count).
+    exhausted : bool
+        Stopped by ``max_iter`` (of this run) without converging.
+    objective_before, objective_after : float
+        The objective (m²: mean squared face fit plus the Tikhonov term) at the start
+        lengths and at ``lengths``.
+    """
+
+    lengths: np.ndarray
+    xyz: np.ndarray
+    damping: float
+    converged: bool
+    message: str
+    iterations: int
+    exhausted: bool
+    objective_before: float
+    objective_after: float
+
+    def _summary(self):
+        return "GaussNewtonResult", [("converged", self.converged), ("iterations", self.iterations),
+                                     ("objective", f"{self.objective_before:.4g} -> {self.objective_after:.4g} m²"),
+                                     ("message", self.message)]
+
+
 def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, ftol, xtol, rms_tol,
-                  lam0=1e-3) -> dict:
+                  lam0=1e-3) -> GaussNewtonResult:
     """Bounded Levenberg–Marquardt over l* from ``l0`` (regularized toward ``l_reg``); the best lengths and how it went.
 
     Parameters
@@ -61,18 +106,18 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
     lo, hi : ndarray of shape (k,)
         Bounds of the lengths (m).
     alpha : float
-        Weight of the Tikhonov term (``alpha · mean((l - l_reg)²)``).
+        Weight of the Tikhonov term (``alpha · mean((l - l_reg)²)``; dimensionless).
     max_iter : int
+        Accepted steps at most.
     ftol, xtol, rms_tol : float
-        Stopping rule (see :func:`airmat.check.refinement.refine`); ``xtol`` in m.
+        Stopping rule (see :class:`airmat.check.refinement.RefineOptions`): relative decrease of
+        the objective (dimensionless), step length (m), decrease of the RMS (m).
     lam0 : float
-        Start damping.
+        Start damping (dimensionless).
 
     Returns
     -------
-    dict
-        ``l``, ``x`` (the last accepted equilibrium), ``lam``, ``converged``, ``message``,
-        ``iterations``, ``exhausted`` (stopped by ``max_iter``), ``objective_before``, ``objective_after``.
+    GaussNewtonResult
     """
     k = len(l0)
     w = np.sqrt(alpha / k)
@@ -127,5 +172,6 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
                 message = "stalled: no step lowers the objective"
                 break
             it += 1
-    return {"l": l, "x": x, "lam": lam, "converged": converged, "message": message, "iterations": it,
-            "exhausted": not converged and it >= max_iter, "objective_before": f_start, "objective_after": f}
+    return GaussNewtonResult(lengths=l, xyz=x, damping=lam, converged=converged, message=message, iterations=it,
+                             exhausted=not converged and it >= max_iter, objective_before=f_start,
+                             objective_after=f)

@@ -73,6 +73,11 @@ every trial equilibrium took. It gives ``deviation_after``; if that is worse
 than the open-loop deviation the open-loop lengths are kept
 (``converged=False``). A design refined again starts from its first open loop
 (``design.open_loop``), as its check does.
+
+Stages: :func:`set_up_problem` (the open-loop inflation, the trial equilibria, the bounds),
+:func:`run_iterations` (the Gauss–Newton runs, :class:`~airmat.check.gauss_newton.GaussNewtonResult`
+each, on one or two levels, with :func:`reparametrize_rounds`) and :func:`verify` (the verification
+inflation and the :class:`Refinement`); :func:`refine` chains them, tuned by a :class:`RefineOptions`.
 SI units inside; the ``refine`` block of design.json is in mm.
 """
 
@@ -87,22 +92,22 @@ import numpy as np
 
 from airmat.errors import InputError
 from airmat.check.compare import Deviation, deviation
-from airmat.check.gauss_newton import gauss_newton
+from airmat.check.gauss_newton import GaussNewtonResult, gauss_newton
 from airmat.check.inflation_check import KnownRun, design_strings, named_face, open_loop_strings
 from airmat.check.length_map import length_map
 from airmat.check.refine_objective import face_fit
 from airmat.check.refined_design import REFINE_FLAG, refined_design
 from airmat.check.reparametrize import Reparametrization
 from airmat.check.reparametrize import reparametrize as reparametrize_approx
-from airmat.check.trial_equilibrium import SOLVE_NEWTON, coarse_start, correct, make_problem
-from airmat.inflation.mesh import build_mattress_mesh
+from airmat.check.trial_equilibrium import SOLVE_NEWTON, TrialProblem, coarse_start, correct, make_problem
+from airmat.inflation.mesh import MattressMesh, build_mattress_mesh
 from airmat.inflation.model import Parameters
 from airmat.inflation.prolong import prolong
-from airmat.inflation.simulate import INFLATE_TOL, inflate, inflate_from
-from airmat.inflation.strings import check_resolution
+from airmat.inflation.simulate import INFLATE_TOL, Inflation, inflate, inflate_from
+from airmat.inflation.strings import StringSet, check_resolution
 from airmat.summary import Summarized, mm
 
-__all__ = ["Refinement", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
+__all__ = ["Refinement", "RefineOptions", "refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
 log = logging.getLogger(__name__)
 
@@ -227,18 +232,167 @@ class Refinement(Summarized):
                     "deviation_before": dev(self.deviation_before_reparametrized)}}
 
 
-def _coarse_resolution(resolution: float, span: np.ndarray, coarsest: float):
-    """Twice ``resolution`` when that stays <= ``coarsest`` and leaves 4 edges along every string, else None."""
+@dataclass(frozen=True)
+class RefineOptions:
+    """The tuning of :func:`refine` (SI units).
+
+    Attributes
+    ----------
+    resolution : float
+        Mesh edge length (m); the check of the refined design at the same resolution
+        reproduces ``deviation_after``.
+    params : airmat.inflation.model.Parameters
+        Pressure (Pa) and stiffnesses of the inflations.
+    alpha : float
+        Weight of the pull toward the open-loop lengths, ``alpha · mean((l* - l*_open)²)``
+        beside the mean squared deviation (dimensionless).
+    max_iter : int
+        Gauss–Newton iterations (accepted steps), over every stage.
+    ftol : float
+        Stopping rule: relative decrease of the objective over an accepted step (dimensionless).
+    xtol : float
+        Stopping rule: step length / mean flat span of the strings (dimensionless).
+    rms_tol : float
+        Stopping rule: decrease of the RMS distance over an accepted step (m).
+    tol : float
+        Relative force residual of the inflations (the open-loop one and the verification).
+    trial_tol : float
+        Relative force residual of the trial equilibria on the coarse mesh.
+    coarsest : float
+        Coarsest mesh of the two-level scheme (m): the Gauss–Newton iterations run on
+        twice ``resolution`` when that is at most ``coarsest`` (and leaves 4 edges along
+        every string); 0 runs them all at ``resolution``.
+    fine_iter : int
+        Gauss–Newton iterations at ``resolution`` after the coarse ones (two-level only).
+    corrections : int
+        Defect corrections (two-level only): when the coarse iterations stop before ``max_iter``,
+        solve the fine mesh at their lengths, re-correct the coarse face by the fine one there,
+        and go on iterating on the coarse mesh; at most this many times.
+    surface : {"auto", "top", "bottom", "mid"}
+        The face; ``"auto"`` as the check chooses it.
+    reparametrize : int
+        Rounds of Ŝ re-parametrized in the metric the refined face realizes
+        (:mod:`airmat.check.reparametrize`), each followed by Gauss–Newton iterations against
+        the new Ŝ; 0: Ŝ as designed. ``max_iter`` is split evenly between the first
+        stage and the rounds (the first stage gets the remainder, a round what the stages
+        before it left).
+    """
+
+    resolution: float = 0.020
+    params: Parameters = Parameters()
+    alpha: float = 1e-3
+    max_iter: int = 20
+    ftol: float = 2e-3
+    xtol: float = 1e-5
+    rms_tol: float = 5e-5
+    tol: float = INFLATE_TOL
+    trial_tol: float = 1e-4
+    coarsest: float = 0.04
+    fine_iter: int = 0
+    corrections: int = 0
+    surface: str = "auto"
+    reparametrize: int = REPARAM_ROUNDS
+
+
+@dataclass(frozen=True)
+class RefineProblem:
+    """What every stage of :func:`refine` starts from (:func:`set_up_problem`); SI units.
+
+    Attributes
+    ----------
+    design : airmat.design.pipeline.DesignResult
+        The design being refined.
+    strings : airmat.inflation.strings.StringSet
+        Its strings at their median lengths (simulated rest lengths l*, m).
+    open_loop : airmat.inflation.strings.StringSet or None
+        A refined design's first open-loop strings (it is inflated from them on); None for an open-loop design.
+    mesh : airmat.inflation.mesh.MattressMesh
+        The mattress at the target resolution.
+    surface : str
+        The named face.
+    flat_inflation : airmat.inflation.simulate.Inflation
+        The inflation from the flat mattress at the open-loop lengths (its continuation levels kept).
+    inflation_seconds : float
+        Its wall time (s).
+    start : airmat.inflation.simulate.Inflation
+        The equilibrium at the given lengths (``flat_inflation`` carried on to them for a refined design).
+    deviation_before : airmat.check.compare.Deviation
+        Of ``start`` from the designed Ŝ.
+    problem : airmat.check.trial_equilibrium.TrialProblem
+        The trial equilibria at the target resolution.
+    lower, upper : ndarray of shape (k,)
+        Bounds of the lengths (m): the shortest a tie allows, the flat span.
+    l_start : ndarray of shape (k,)
+        The given lengths clipped to the bounds (m): the start and the Tikhonov term's target.
+    lengths_before : {"open-loop", "refined"}
+        What the given design's lengths are.
+    """
+
+    design: object
+    strings: StringSet
+    open_loop: StringSet | None
+    mesh: MattressMesh
+    surface: str
+    flat_inflation: Inflation
+    inflation_seconds: float
+    start: Inflation
+    deviation_before: Deviation
+    problem: TrialProblem
+    lower: np.ndarray
+    upper: np.ndarray
+    l_start: np.ndarray
+    lengths_before: str
+
+    @property
+    def flat_strings(self) -> StringSet:
+        """The strings ``flat_inflation`` was inflated with."""
+        return self.strings if self.open_loop is None else self.open_loop
+
+
+@dataclass(frozen=True)
+class Iterations:
+    """What the Gauss–Newton stages of :func:`refine` reached (:func:`run_iterations`).
+
+    Attributes
+    ----------
+    result : airmat.check.gauss_newton.GaussNewtonResult
+        The last stage's outcome, its ``iterations`` counted over every stage and its
+        ``objective_before`` the target mesh's at the given lengths (m²).
+    reparametrizations : tuple of airmat.check.reparametrize.Reparametrization
+        Ŝ of each re-parametrization round, in order.
+    coarse_resolution : float or None
+        Mesh of the iterations (m); None: all at the target resolution.
+    corrections : tuple of float
+        The RMS distance (m) of the fine face from Ŝ at each defect correction's coarse optimum.
+    """
+
+    result: GaussNewtonResult
+    reparametrizations: tuple = ()
+    coarse_resolution: float | None = None
+    corrections: tuple = ()
+
+
+def coarse_resolution(resolution: float, span: np.ndarray, coarsest: float) -> float | None:
+    """The two-level scheme's coarse mesh edge (m): twice ``resolution``, or None.
+
+    None when twice ``resolution`` exceeds ``coarsest`` (m) or leaves fewer than 4 edges
+    along the shortest ``span`` (shape (k,), m).
+    """
     coarse = 2.0 * resolution
     if coarse > coarsest * (1 + 1e-9) or coarse * 4.0 > float(np.min(span)):
         return None
     return coarse
 
 
-def _bounds(design, strings) -> tuple:
+def length_bounds(design, strings: StringSet) -> tuple:
+    """Bounds of the simulated lengths l* (m), each an ndarray of shape (k,).
+
+    The lower bound is the shortest a tie allows (real length 0 through the calibration's
+    length map, at most half the span); the upper one the string's flat span (no bend).
+    """
     span = np.linalg.norm(strings.b - strings.a, axis=1)
-    lo = np.minimum(length_map(design.calibration).to_simulated(np.zeros(len(span))), 0.5 * span)
-    return lo, span
+    lower = np.minimum(length_map(design.calibration).to_simulated(np.zeros(len(span))), 0.5 * span)
+    return lower, span
 
 
 def check_refinable(design, resolution: float, path=None) -> None:
@@ -266,79 +420,260 @@ def check_refinable(design, resolution: float, path=None) -> None:
     check_resolution(design_strings(design, "median"), resolution)
 
 
-def _reparametrize_rounds(work, g, design, l_open, lo, hi, rounds, total, kw):
-    """Ŝ re-parametrized in the metric of ``work``'s face at ``g``'s optimum, then more iterations; ``rounds`` times.
+def set_up_problem(design, options: RefineOptions) -> RefineProblem:
+    """Check the input, inflate the given lengths and set up the trial equilibria and the bounds.
 
-    ``work.approx_xyz`` takes each new Ŝ. Each round's iterations are an even share of what
-    is left of ``total`` (so what an earlier stage did not use is not lost). Returns the last
-    Gauss–Newton result (iterations counted over all) and the rounds'
-    :class:`~airmat.check.reparametrize.Reparametrization` list.
+    Parameters
+    ----------
+    design : airmat.design.pipeline.DesignResult
+    options : RefineOptions
+
+    Returns
+    -------
+    RefineProblem
+
+    Raises
+    ------
+    airmat.errors.InputError
+        What :func:`check_refinable` refuses, or a negative ``options.reparametrize``.
     """
-    reps = []
+    check_refinable(design, options.resolution)
+    lengths_before = "open-loop" if design.refine is None else "refined"
+    if options.reparametrize < 0:
+        raise InputError(f"refinement: reparametrize must be 0 or more rounds, got {options.reparametrize}")
+    strings = design_strings(design, "median")
+    open_loop = open_loop_strings(design)      # a refined design is inflated from its open loop on
+    mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
+                               resolution=options.resolution)
+    surface = named_face(design, strings) if options.surface == "auto" else options.surface
+    started = time.perf_counter()
+    flat_inflation = inflate(mesh, strings if open_loop is None else open_loop, params=options.params,
+                             tol=options.tol, keep_levels=True)
+    inflation_seconds = time.perf_counter() - started
+    start = flat_inflation if open_loop is None else inflate_from(flat_inflation, strings, params=options.params,
+                                                                  tol=options.tol)
+    deviation_before = deviation(start, design.approx.xyz, design.approx.uv, surface)
+    problem = make_problem(mesh, strings, options.params, design, surface, options.tol)
+    lower, upper = length_bounds(design, strings)
+    return RefineProblem(design=design, strings=strings, open_loop=open_loop, mesh=mesh, surface=surface,
+                         flat_inflation=flat_inflation, inflation_seconds=inflation_seconds, start=start,
+                         deviation_before=deviation_before, problem=problem, lower=lower, upper=upper,
+                         l_start=np.clip(strings.rest, lower, upper), lengths_before=lengths_before)
+
+
+def _solver_options(setup: RefineProblem, options: RefineOptions) -> dict:
+    """The keywords of :func:`~airmat.check.gauss_newton.gauss_newton` every stage shares (``xtol`` in m)."""
+    return dict(alpha=options.alpha, ftol=options.ftol, xtol=options.xtol * float(np.mean(setup.upper)),
+                rms_tol=options.rms_tol)
+
+
+def _go_on(problem: TrialProblem, previous: GaussNewtonResult, xyz, setup: RefineProblem, max_iter: int,
+           solver: dict) -> GaussNewtonResult:
+    """More iterations on ``problem`` from ``previous``'s lengths and damping and the equilibrium ``xyz``;
+    the iterations counted over both."""
+    more = gauss_newton(problem, previous.lengths, setup.l_start, xyz, setup.lower, setup.upper,
+                        max_iter=max_iter, lam0=previous.damping, **solver)
+    return dataclasses.replace(more, iterations=more.iterations + previous.iterations)
+
+
+def reparametrize_rounds(problem: TrialProblem, result: GaussNewtonResult, setup: RefineProblem, rounds: int,
+                         total: int, solver: dict) -> tuple:
+    """Ŝ re-parametrized in the metric of ``problem``'s face at ``result``'s optimum, then more iterations;
+    ``rounds`` times.
+
+    Parameters
+    ----------
+    problem : airmat.check.trial_equilibrium.TrialProblem
+        The mesh the iterations run on; its ``approx_xyz`` takes each new Ŝ (m).
+    result : airmat.check.gauss_newton.GaussNewtonResult
+        Where the stage before stopped.
+    setup : RefineProblem
+    rounds : int
+        Rounds to make (0: none).
+    total : int
+        Iterations of the first stage and the rounds together: each round gets an even
+        share of what is left (so what an earlier stage did not use is not lost).
+    solver : dict
+        The keywords of the stopping rule (:func:`_solver_options`).
+
+    Returns
+    -------
+    result : airmat.check.gauss_newton.GaussNewtonResult
+        The last stage's (iterations counted over all).
+    reparametrizations : list of airmat.check.reparametrize.Reparametrization
+        Each round's Ŝ.
+    """
+    reparametrizations = []
     if rounds <= 0:
-        return g, reps
+        return result, reparametrizations
     from airmat.design.closest_point import MeshProjector
 
-    a = design.approx
-    onto = MeshProjector(a.xyz, a.faces)
-    for r in range(rounds):
-        budget = (total - g["iterations"]) // (rounds - r)
-        face = work.p @ g["x"] + (0.0 if work.offset is None else work.offset)
-        rep = reparametrize_approx(a.xyz, a.uv, a.faces, face, start=work.approx_xyz, projector=onto,
-                            max_iter=REPARAM_RELAX_ITER)
-        reps.append(rep)
-        work.approx_xyz = rep.xyz
+    approx = setup.design.approx
+    projector = MeshProjector(approx.xyz, approx.faces)
+    for done in range(rounds):
+        share = (total - result.iterations) // (rounds - done)
+        face = problem.p @ result.xyz + (0.0 if problem.offset is None else problem.offset)
+        rep = reparametrize_approx(approx.xyz, approx.uv, approx.faces, face, start=problem.approx_xyz,
+                                   projector=projector, max_iter=REPARAM_RELAX_ITER)
+        reparametrizations.append(rep)
+        problem.approx_xyz = rep.xyz
         log.debug("Ŝ re-parametrized in the realized metric: moved %.1f mm RMS (%s), %.2f mm RMS off its surface",
                   rep.moved_rms * 1e3, "converged" if rep.converged else "not converged", rep.off_rms * 1e3)
-        if budget > 0:
-            g2 = gauss_newton(work, g["l"], l_open, g["x"], lo, hi, max_iter=budget, lam0=g["lam"], **kw)
-            g2["iterations"] += g["iterations"]
-            g = g2
-    return g, reps
+        if share > 0:
+            result = _go_on(problem, result, result.xyz, setup, share, solver)
+    return result, reparametrizations
 
 
-def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters(), alpha: float = 1e-3,
-           max_iter: int = 20, ftol: float = 2e-3, xtol: float = 1e-5, rms_tol: float = 5e-5,
-           tol: float = INFLATE_TOL, trial_tol: float = 1e-4, coarsest: float = 0.04, fine_iter: int = 0,
-           corrections: int = 0, surface: str = "auto", reparametrize: int = REPARAM_ROUNDS) -> Refinement:
+def _two_level(setup: RefineProblem, options: RefineOptions, coarse: float, first_stage: int, budget: int,
+               solver: dict) -> Iterations:
+    """The iterations on the mesh of edge ``coarse`` (m), its face corrected by the difference of the two
+    meshes' faces at the given lengths; defect corrections, the rounds, then ``options.fine_iter`` here."""
+    fine, mesh = setup.problem, setup.mesh
+    coarse_mesh = build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=coarse)
+    problem = make_problem(coarse_mesh, setup.strings, options.params, setup.design, setup.surface, options.tol)
+    coarse_start_eq = coarse_start(problem, setup.flat_inflation, setup.strings, options.params, options.tol)
+    problem.offset = fine.p @ setup.start.xyz - problem.p @ coarse_start_eq.xyz   # the face here minus the coarse one
+    problem.tol = options.trial_tol
+    result = gauss_newton(problem, setup.l_start, setup.l_start, coarse_start_eq.xyz, setup.lower, setup.upper,
+                          max_iter=first_stage, **solver)
+    fine_rms = []
+    for _ in range(options.corrections):
+        if result.iterations >= first_stage:
+            break
+        fine_eq = correct(fine, problem, result.lengths, result.xyz, options.trial_tol)
+        if fine_eq is None:
+            break
+        fine_rms.append(float(np.sqrt(face_fit(fine.p, fine_eq.xyz, fine.approx_xyz).objective)))
+        log.debug("defect correction: the fine face %.2f mm RMS at the coarse optimum (%d Newton iterations)",
+                  fine_rms[-1] * 1e3, fine_eq.n_iter)
+        result = _go_on(problem, result, result.xyz, setup, first_stage - result.iterations, solver)
+    result, reparametrizations = reparametrize_rounds(problem, result, setup, options.reparametrize, budget, solver)
+    fine.approx_xyz = problem.approx_xyz
+    fine_start = (fine.equilibrium(result.lengths, prolong(coarse_mesh, result.xyz, mesh), SOLVE_NEWTON)
+                  if options.fine_iter else None)
+    log.debug("refinement: %d iterations on the %.0f mm mesh (%s), then here", result.iterations,
+              coarse * 1e3, result.message)
+    if fine_start is not None:
+        result = _go_on(fine, result, fine_start.xyz, setup, options.fine_iter, solver)
+    return Iterations(result=result, reparametrizations=tuple(reparametrizations), coarse_resolution=coarse,
+                      corrections=tuple(fine_rms))
+
+
+def run_iterations(setup: RefineProblem, options: RefineOptions) -> Iterations:
+    """The Gauss–Newton stages: the first one, the defect corrections and the re-parametrization rounds.
+
+    On the mesh twice as coarse when :func:`coarse_resolution` allows it (``options.coarsest > 0``),
+    else at the target resolution. ``options.max_iter`` (less ``options.fine_iter`` on two levels) is
+    split evenly between the first stage and the rounds; the first stage gets the remainder.
+
+    Parameters
+    ----------
+    setup : RefineProblem
+    options : RefineOptions
+
+    Returns
+    -------
+    Iterations
+    """
+    solver = _solver_options(setup, options)
+    coarse = (coarse_resolution(options.resolution, setup.upper, options.coarsest)
+              if options.coarsest > 0 else None)
+    fine = setup.problem
+    objective_before = face_fit(fine.p, setup.start.xyz, fine.approx_xyz).objective
+    budget = options.max_iter - (options.fine_iter if coarse is not None else 0)
+    first_stage = budget - options.reparametrize * (budget // (options.reparametrize + 1))
+    if coarse is None:
+        result = gauss_newton(fine, setup.l_start, setup.l_start, setup.start.xyz, setup.lower, setup.upper,
+                              max_iter=first_stage, **solver)
+        result, reparametrizations = reparametrize_rounds(fine, result, setup, options.reparametrize, budget,
+                                                          solver)
+        done = Iterations(result=result, reparametrizations=tuple(reparametrizations))
+    else:
+        done = _two_level(setup, options, coarse, first_stage, budget, solver)
+    return dataclasses.replace(done, result=dataclasses.replace(done.result, objective_before=objective_before))
+
+
+def verify(setup: RefineProblem, iterations: Iterations, options: RefineOptions, started: float) -> Refinement:
+    """Inflate the refined lengths as the check does and assemble the :class:`Refinement`.
+
+    The verification is the open-loop equilibrium carried on to the refined lengths at the target
+    resolution (the check's path of a refined design). When it does not converge or lands farther
+    from Ŝ than the given lengths did, those are kept (``converged=False``).
+
+    Parameters
+    ----------
+    setup : RefineProblem
+    iterations : Iterations
+    options : RefineOptions
+    started : float
+        ``time.perf_counter()`` when the refinement began (s).
+
+    Returns
+    -------
+    Refinement
+    """
+    design, result = setup.design, iterations.result
+    reps = iterations.reparametrizations
+    approx_xyz = design.approx.xyz if not reps else reps[-1].xyz
+    l_best, converged, message = result.lengths, result.converged, result.message
+    if result.exhausted:        # counted over every stage (coarse, corrected, fine), not the last one's share
+        message = f"not converged after {result.iterations} iterations"
+    span_tol = 1e-4 * setup.upper
+    dropped = l_best >= setup.upper - span_tol
+    flagged = l_best <= setup.lower + span_tol
+    lengths = length_map(design.calibration)
+    refined = refined_design(design, lengths.to_real(l_best), dropped, flagged)
+    if reps:
+        refined = dataclasses.replace(refined, approx=dataclasses.replace(refined.approx, xyz=approx_xyz))
+    verify_started = time.perf_counter()
+    refined_strings = design_strings(refined, "median")
+    # the check's path of a refined design (airmat.check.inflation_check): from the open-loop equilibrium on
+    final = inflate_from(setup.flat_inflation, refined_strings if len(refined_strings) else None,
+                         params=options.params, tol=options.tol)
+    verification_seconds = time.perf_counter() - verify_started
+    deviation_before, surface = setup.deviation_before, setup.surface
+    deviation_after = deviation(final, approx_xyz, design.approx.uv, surface)
+    deviation_before_reparametrized = deviation(setup.start, approx_xyz, design.approx.uv, surface) if reps else None
+    known = KnownRun(refined_strings, final, options.params, options.tol, start=setup.flat_strings)
+    # the design the user gets is never reported worse than the open-loop one (each against its own Ŝ)
+    if not final.converged or deviation_after.rms > deviation_before.rms:
+        given = setup.lengths_before
+        message = (f"the refined lengths inflate to {deviation_after.rms * 1e3:.1f} mm RMS, not better than the "
+                   f"{given} {deviation_before.rms * 1e3:.1f} mm: the {given} lengths are kept")
+        converged, l_best, deviation_after = False, setup.l_start, deviation_before
+        dropped, flagged = np.zeros(len(l_best), bool), np.zeros(len(l_best), bool)
+        refined = dataclasses.replace(design)
+        known = KnownRun(setup.strings, setup.start, options.params, options.tol, start=setup.open_loop)
+        reps, deviation_before_reparametrized = (), None
+    ids = setup.strings.ids
+    return Refinement(design=refined, converged=converged, iterations=result.iterations,
+                      seconds=time.perf_counter() - started, message=message,
+                      objective_before=result.objective_before, objective_after=result.objective_after,
+                      deviation_before=deviation_before, deviation_after=deviation_after,
+                      l_real=lengths.to_real(l_best), l_simulated=l_best,
+                      dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
+                      flagged=tuple(ids[i] for i in np.flatnonzero(flagged)),
+                      inflation_seconds=setup.inflation_seconds, verification_seconds=verification_seconds,
+                      resolution=options.resolution, surface=surface,
+                      coarse_resolution=iterations.coarse_resolution, corrections=iterations.corrections,
+                      alpha=float(options.alpha), verification=known,
+                      open_loop_run=KnownRun(setup.flat_strings, setup.flat_inflation, options.params, options.tol),
+                      reparametrization=reps[-1] if reps else None,
+                      deviation_before_reparametrized=deviation_before_reparametrized,
+                      reparametrize_rounds=len(reps), lengths_before=setup.lengths_before)
+
+
+def refine(design, options: RefineOptions | None = None, **overrides) -> Refinement:
     """Adjust the strings' lengths so that the inflated named face lands on Ŝ (see the module docstring).
 
     Parameters
     ----------
     design : airmat.design.pipeline.DesignResult
-    resolution : float
-        Mesh edge length (m); the check of the refined design at the same resolution
-        reproduces ``deviation_after``.
-    params : Parameters
-    alpha : float
-        Weight of the regularization (dimensionless).
-    max_iter : int
-        Gauss–Newton iterations.
-    ftol, xtol, rms_tol : float
-        Stopping rule: relative objective decrease, step length / mean span, decrease of
-        the RMS (m) over an accepted step.
-    tol : float
-        Force residual of the inflations (the open-loop one and the verification).
-    trial_tol : float
-        Force residual of the trial equilibria on the coarse mesh.
-    coarsest : float
-        Coarsest mesh of the two-level scheme (m): the Gauss–Newton iterations run on
-        twice ``resolution`` when that is at most ``coarsest`` (and leaves 4 edges along
-        every string); 0 runs them all at ``resolution``.
-    fine_iter : int
-        Gauss–Newton iterations at ``resolution`` after the coarse ones (two-level only).
-    corrections : int
-        Defect corrections (two-level only): when the coarse iterations stop before ``max_iter``,
-        solve the fine mesh at their lengths, re-correct the coarse face by the fine one there,
-        and go on iterating on the coarse mesh; at most this many times.
-    surface : {"auto", "top", "bottom", "mid"}
-        The face; ``"auto"`` as the check chooses it.
-    reparametrize : int
-        Rounds of Ŝ re-parametrized in the metric the refined face realizes
-        (:mod:`airmat.check.reparametrize`), each followed by Gauss–Newton iterations against
-        the new Ŝ; 0: Ŝ as designed. ``max_iter`` is split evenly between the first
-        stage and the rounds (the first stage gets the remainder, a round what the stages
-        before it left).
+    options : RefineOptions, optional
+        The tuning; None: the defaults.
+    **overrides
+        Fields of :class:`RefineOptions` set on top of ``options``, by keyword
+        (``resolution=0.02, max_iter=6``, ...; SI units).
 
     Returns
     -------
@@ -349,111 +684,16 @@ def refine(design, *, resolution: float = 0.020, params: Parameters = Parameters
     airmat.errors.InputError
         A design without strings, a resolution too coarse for them, or a calibration
         without posterior samples (the tolerance of a refined length comes from them).
+    TypeError
+        A keyword that is no field of :class:`RefineOptions`.
     """
-    t0 = time.perf_counter()
-    check_refinable(design, resolution)
-    given = "open-loop" if design.refine is None else "refined"
-    if reparametrize < 0:
-        raise InputError(f"refinement: reparametrize must be 0 or more rounds, got {reparametrize}")
-    strings = design_strings(design, "median")
-    start = open_loop_strings(design)      # a refined design is inflated from its open loop on
-    mesh = build_mattress_mesh(design.mattress.width, design.mattress.height, design.mattress.thickness,
-                               resolution=resolution)
-    named = named_face(design, strings) if surface == "auto" else surface
-    ti = time.perf_counter()
-    base = inflate(mesh, strings if start is None else start, params=params, tol=tol, keep_levels=True)
-    t_inflate = time.perf_counter() - ti
-    first = base if start is None else inflate_from(base, strings, params=params, tol=tol)
-    dev0 = deviation(first, design.approx.xyz, design.approx.uv, named)
-    prob = make_problem(mesh, strings, params, design, named, tol)
-    lo, hi = _bounds(design, strings)
-    l_open = np.clip(strings.rest, lo, hi)
-    kw = dict(alpha=alpha, ftol=ftol, xtol=xtol * float(np.mean(hi)), rms_tol=rms_tol)
-    coarse = _coarse_resolution(resolution, hi, coarsest) if coarsest > 0 else None
-    fine_rms = []
-    objective_before = face_fit(prob.p, first.xyz, prob.approx_xyz).objective
-    # the iterations split evenly between the first stage and each re-parametrization round
-    budget = max_iter - (fine_iter if coarse is not None else 0)
-    stage = budget - reparametrize * (budget // (reparametrize + 1))
-    if coarse is None:
-        gn = gauss_newton(prob, l_open, l_open, first.xyz, lo, hi, max_iter=stage, **kw)
-        gn, reps = _reparametrize_rounds(prob, gn, design, l_open, lo, hi, reparametrize, budget, kw)
-    else:
-        # the iterations on the mesh twice as coarse (a Newton iteration ~6x cheaper), its face corrected
-        # by the difference of the two meshes' faces at the open-loop lengths
-        cmesh = build_mattress_mesh(mesh.width, mesh.height, mesh.thickness, resolution=coarse)
-        cprob = make_problem(cmesh, strings, params, design, named, tol)
-        cstart = coarse_start(cprob, base, strings, params, tol)
-        cprob.offset = prob.p @ first.xyz - cprob.p @ cstart.xyz     # the face here minus the coarse one
-        cprob.tol = trial_tol
-        gc = gauss_newton(cprob, l_open, l_open, cstart.xyz, lo, hi, max_iter=stage, **kw)
-        for _ in range(corrections):
-            if gc["iterations"] >= stage:
-                break
-            eqf = correct(prob, cprob, gc["l"], gc["x"], trial_tol)
-            if eqf is None:
-                break
-            fine_rms.append(float(np.sqrt(face_fit(prob.p, eqf.xyz, prob.approx_xyz).objective)))
-            log.debug("defect correction: the fine face %.2f mm RMS at the coarse optimum (%d Newton iterations)",
-                      fine_rms[-1] * 1e3, eqf.n_iter)
-            g2 = gauss_newton(cprob, gc["l"], l_open, gc["x"], lo, hi,
-                               max_iter=stage - gc["iterations"], lam0=gc["lam"], **kw)
-            g2["iterations"] += gc["iterations"]
-            gc = g2
-        gc, reps = _reparametrize_rounds(cprob, gc, design, l_open, lo, hi, reparametrize, budget, kw)
-        prob.approx_xyz = cprob.approx_xyz
-        eq = prob.equilibrium(gc["l"], prolong(cmesh, gc["x"], mesh), SOLVE_NEWTON) if fine_iter else None
-        log.debug("refinement: %d iterations on the %.0f mm mesh (%s), then here", gc["iterations"],
-                  coarse * 1e3, gc["message"])
-        if eq is None:
-            gn = dict(gc)
-        else:
-            gn = gauss_newton(prob, gc["l"], l_open, eq.xyz, lo, hi, max_iter=fine_iter, lam0=gc["lam"], **kw)
-            gn["iterations"] += gc["iterations"]
-    gn["objective_before"] = objective_before
-    approx_xyz = design.approx.xyz if not reps else reps[-1].xyz
-    l_best, converged, message = gn["l"], gn["converged"], gn["message"]
-    if gn["exhausted"]:        # counted over every stage (coarse, corrected, fine), not the last one's share
-        message = f"not converged after {gn['iterations']} iterations"
-    span_tol = 1e-4 * hi
-    dropped = l_best >= hi - span_tol
-    flagged = l_best <= lo + span_tol
-    lengths = length_map(design.calibration)
-    refined = refined_design(design, lengths.to_real(l_best), dropped, flagged)
-    if reps:
-        refined = dataclasses.replace(refined, approx=dataclasses.replace(refined.approx, xyz=approx_xyz))
-    tv = time.perf_counter()
-    refined_strings = design_strings(refined, "median")
-    # the check's path of a refined design (airmat.check.inflation_check): from the open-loop equilibrium on
-    final = inflate_from(base, refined_strings if len(refined_strings) else None, params=params, tol=tol)
-    t_verify = time.perf_counter() - tv
-    dev1 = deviation(final, approx_xyz, design.approx.uv, named)
-    dev0_new = deviation(first, approx_xyz, design.approx.uv, named) if reps else None
-    base_strings = strings if start is None else start
-    known = KnownRun(refined_strings, final, params, tol, start=base_strings)
-    # the design the user gets is never reported worse than the open-loop one (each against its own Ŝ)
-    if not final.converged or dev1.rms > dev0.rms:
-        message = (f"the refined lengths inflate to {dev1.rms * 1e3:.1f} mm RMS, not better than the "
-                   f"{given} {dev0.rms * 1e3:.1f} mm: the {given} lengths are kept")
-        converged, l_best, dev1 = False, l_open, dev0
-        dropped, flagged = np.zeros(len(l_best), bool), np.zeros(len(l_best), bool)
-        refined = dataclasses.replace(design)
-        known = KnownRun(strings, first, params, tol, start=start)
-        reps, dev0_new = [], None
-    ids = strings.ids
-    res = Refinement(design=refined, converged=converged, iterations=gn["iterations"],
-                     seconds=time.perf_counter() - t0, message=message, objective_before=gn["objective_before"],
-                     objective_after=gn["objective_after"], deviation_before=dev0, deviation_after=dev1,
-                     l_real=lengths.to_real(l_best), l_simulated=l_best,
-                     dropped=tuple(ids[i] for i in np.flatnonzero(dropped)),
-                     flagged=tuple(ids[i] for i in np.flatnonzero(flagged)), inflation_seconds=t_inflate,
-                     verification_seconds=t_verify, resolution=resolution, surface=named,
-                     coarse_resolution=coarse, corrections=tuple(fine_rms), alpha=float(alpha),
-                     verification=known, open_loop_run=KnownRun(base_strings, base, params, tol),
-                     reparametrization=reps[-1] if reps else None,
-                     deviation_before_reparametrized=dev0_new, reparametrize_rounds=len(reps),
-                     lengths_before=given)
+    started = time.perf_counter()
+    options = dataclasses.replace(options if options is not None else RefineOptions(), **overrides)
+    setup = set_up_problem(design, options)
+    iterations = run_iterations(setup, options)
+    refinement = verify(setup, iterations, options, started)
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
-             "converged" if converged else "not converged", res.iterations, res.seconds, t_inflate, named,
-             dev0.rms * 1e3, dev1.rms * 1e3)
-    return dataclasses.replace(res, design=dataclasses.replace(res.design, refine=res.block()))
+             "converged" if refinement.converged else "not converged", refinement.iterations, refinement.seconds,
+             refinement.inflation_seconds, refinement.surface, refinement.deviation_before.rms * 1e3,
+             refinement.deviation_after.rms * 1e3)
+    return dataclasses.replace(refinement, design=dataclasses.replace(refinement.design, refine=refinement.block()))

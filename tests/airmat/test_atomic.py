@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -282,7 +283,13 @@ def test_sweep_keeps_the_staging_folder_of_a_running_stage(tmp_path):
 # ---------------------------------------------------------------- concurrent runs
 
 def test_concurrent_runs_on_one_out_end_with_one_whole_result(tmp_path, monkeypatch):
-    monkeypatch.setenv(atomic.PUBLISH_DELAY_ENV, "0.02")  # widen the publish so they overlap
+    swap = atomic._swap_uninterrupted
+
+    def slowed(*args, **kwargs):  # widen the publish so they overlap
+        time.sleep(0.02)
+        swap(*args, **kwargs)
+        time.sleep(0.02)
+    monkeypatch.setattr(atomic, "_swap_uninterrupted", slowed)
     out = tmp_path / "fresh" / "out"  # missing: the first publish is a plain rename
     barrier = threading.Barrier(4)
     errors = []

@@ -15,7 +15,7 @@ from refine_case import (RESOLUTION, TRUE_SIM, moves_toward_the_true_lengths, of
 from airmat.errors import InputError  # noqa: E402
 from airmat.check.inflation_check import check, design_strings, open_loop_strings  # noqa: E402
 from airmat.check.length_map import length_map  # noqa: E402
-from airmat.check.refinement import refine  # noqa: E402
+from airmat.check.refinement import RefineOptions, refine  # noqa: E402
 from airmat.design.design_io import read_design, write_design  # noqa: E402
 from airmat.inflation.model import Parameters  # noqa: E402
 
@@ -151,7 +151,7 @@ def test_the_checks_tolerance_is_the_inflations_default():
     from airmat.inflation.simulate import INFLATE_TOL
     from airmat.inflation.simulate import inflate as inflate_fn
     assert inspect.signature(inflate_fn).parameters["tol"].default == INFLATE_TOL
-    assert inspect.signature(refine).parameters["tol"].default == INFLATE_TOL   # the verification the check reuses
+    assert RefineOptions().tol == INFLATE_TOL   # the verification the check reuses
 
 
 def test_refine_block_round_trips_through_the_design_folder(refined, tmp_path):
@@ -277,7 +277,7 @@ def test_lengths_that_verify_worse_are_not_kept_and_the_message_names_what_is(ca
     given = dataclasses.replace(case, refine={"converged": True}) if already else case
     r = refine(given, resolution=RESOLUTION, max_iter=2)
     assert len(calls) == 1 and not r.converged
-    np.testing.assert_array_equal(r.l_simulated, np.clip(design_strings(case).rest, *refinement._bounds(
+    np.testing.assert_array_equal(r.l_simulated, np.clip(design_strings(case).rest, *refinement.length_bounds(
         case, design_strings(case))))
     assert r.deviation_after == r.deviation_before and r.dropped == r.flagged == ()
     name = "refined" if already else "open-loop"

@@ -267,13 +267,13 @@ def test_a_step_that_realizes_under_a_quarter_of_its_predicted_decrease_is_not_t
     first = prob.trials[0]
     rho_first = (prob.c ** 2 - prob.fit(np.array([[first, 0, 0]])).objective) / prob.c ** 2
     assert first == pytest.approx(prob.c, rel=1e-2) and 1e-3 < rho_first < ACCEPT   # the near-GN step, poor
-    assert len(prob.trials) > 1 and one["l"][0] < prob.trials[1] < first             # refused, shorter ones tried
-    assert one["iterations"] == 1 and one["l"][0] == prob.trials[-1]
+    assert len(prob.trials) > 1 and one.lengths[0] < prob.trials[1] < first             # refused, shorter ones tried
+    assert one.iterations == 1 and one.lengths[0] == prob.trials[-1]
     # the step taken is shorter and gains more than the refused one
-    assert one["objective_after"] < 0.75 * prob.fit(np.array([[first, 0, 0]])).objective
+    assert one.objective_after < 0.75 * prob.fit(np.array([[first, 0, 0]])).objective
     root = (-1.0 + np.sqrt(1.0 + 4.0 * prob.a * prob.c)) / (2.0 * prob.a)
     done = gauss_newton(_Overshoot(), np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=30, **kw)
-    assert done["converged"] and done["l"][0] == pytest.approx(root, abs=1e-6)
+    assert done.converged and done.lengths[0] == pytest.approx(root, abs=1e-6)
 
 
 class _OutOfReach(_Overshoot):
@@ -298,8 +298,8 @@ def test_the_damping_shrinks_only_after_an_iteration_whose_first_step_was_taken(
     lo, hi, x0 = np.array([-10.0]), np.array([10.0]), np.zeros((1, 3))
     prob = _OutOfReach(reach=0.9)
     one = gauss_newton(prob, np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=1, lam0=1e-3, **kw)
-    assert len(prob.trials) > 1 and max(prob.trials[:-1]) > 0.9 and one["l"][0] == prob.trials[-1] <= 0.9
-    assert one["lam"] == pytest.approx(1e-3 * 4.0 ** (len(prob.trials) - 1))   # held where the step was taken
+    assert len(prob.trials) > 1 and max(prob.trials[:-1]) > 0.9 and one.lengths[0] == prob.trials[-1] <= 0.9
+    assert one.damping == pytest.approx(1e-3 * 4.0 ** (len(prob.trials) - 1))   # held where the step was taken
     free = _OutOfReach(reach=np.inf)                    # the first step is taken (rho = 1): the damping shrinks
     first = gauss_newton(free, np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=1, lam0=1e-3, **kw)
-    assert len(free.trials) == 1 and first["lam"] == pytest.approx(1e-3 / LAM_DOWN)
+    assert len(free.trials) == 1 and first.damping == pytest.approx(1e-3 / LAM_DOWN)

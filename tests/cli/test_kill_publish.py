@@ -2,11 +2,13 @@
 
 A subprocess rewrites a folder that holds a previous good run (another
 seed) and is killed with SIGKILL or interrupted with SIGINT: before the
-computation, during it, and inside the publish step, which the test hook
-``AIRMAT_TEST_PUBLISH_DELAY`` widens (it sleeps just before and just after
-the swap). After each kill the folder must equal, byte for byte, the old run
-or the new one; the staging folders a killed run leaves are gone after the
-next run.
+computation, during it, and inside the publish step, which the test widens:
+the subprocess runs ``python -m airmat`` through a small ``-c`` wrapper that
+replaces the publish's swap (``airmat.atomic._swap_uninterrupted``) with one
+that sleeps just before and just after it, inside the output's lock, as the
+swap itself is. After each kill the folder must equal, byte for byte, the
+old run or the new one; the staging folders a killed run leaves are gone
+after the next run.
 """
 
 import os
@@ -19,12 +21,26 @@ from pathlib import Path
 
 import pytest
 
-from airmat.atomic import PUBLISH_DELAY_ENV
 from airmat.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 ARGS = ["--points", "10000", "-q"]
 WINDOW = 1.0  # s slept before and after the swap when aiming at the publish step
+
+#: ``python -c SLOW_PUBLISH DELAY ARGS...`` runs ``python -m airmat ARGS...`` with DELAY seconds of sleep
+#: just before and just after the publish's swap (where the kills aim); the product has no such hook
+SLOW_PUBLISH = """
+import runpy, sys, time
+import airmat.atomic as atomic
+delay = float(sys.argv.pop(1))
+swap = atomic._swap_uninterrupted
+def slowed(*args, **kwargs):
+    time.sleep(delay)
+    swap(*args, **kwargs)
+    time.sleep(delay)
+atomic._swap_uninterrupted = slowed
+runpy.run_module("airmat", run_name="__main__", alter_sys=True)
+"""
 
 
 def snapshot(folder):
@@ -48,10 +64,8 @@ def _staging(out):
 
 def _start(out, delay=None):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-    env.pop(PUBLISH_DELAY_ENV, None)
-    if delay:
-        env[PUBLISH_DELAY_ENV] = str(delay)
-    return subprocess.Popen([sys.executable, "-m", "airmat", "synth", str(out), *ARGS, "--seed", "1"],
+    run = ["-c", SLOW_PUBLISH, str(delay)] if delay else ["-m", "airmat"]
+    return subprocess.Popen([sys.executable, *run, "synth", str(out), *ARGS, "--seed", "1"],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
