@@ -8,7 +8,7 @@ points. :func:`kappa_standard_error` gives the M-estimator sandwich
 covariance, classical and cluster-robust over bins along the arc, so that
 spatially correlated residuals (the string-end grooves) widen the error bar
 instead of being counted as independent noise. The losses are scipy's
-(``rho(z)``, ``z = (e / f_scale)^2``).
+(``rho(z)``, ``z = (e / f_scale)^2``; :mod:`airmat.calib.robust_loss`, re-exported here).
 """
 
 from __future__ import annotations
@@ -17,40 +17,9 @@ import numpy as np
 
 from airmat.errors import ConvergenceError
 from airmat.calib.cylinder_lsq import CylinderFrame, CylinderProblem, RefineResult, arc_position, left_jacobian
+from airmat.calib.robust_loss import loss_slopes, loss_weights, robust_cost
 
 __all__ = ["polish", "kappa_standard_error", "loss_weights", "loss_slopes", "robust_cost"]
-
-
-def loss_weights(e: np.ndarray, f_scale: float, loss: str) -> np.ndarray:
-    """IRLS weights ``rho'(z)``, ``z = (e / f_scale)^2``, of a least_squares loss (same rho as scipy)."""
-    z = (np.asarray(e) / f_scale) ** 2
-    if loss == "linear":
-        return np.ones_like(z)
-    if loss == "soft_l1":
-        return 1.0 / np.sqrt(1.0 + z)
-    if loss == "huber":
-        return np.where(z <= 1.0, 1.0, 1.0 / np.sqrt(np.maximum(z, 1.0)))
-    if loss == "cauchy":
-        return 1.0 / (1.0 + z)
-    if loss == "arctan":
-        return 1.0 / (1.0 + z * z)
-    raise ValueError(f"unknown loss {loss!r}")
-
-
-def loss_slopes(e: np.ndarray, f_scale: float, loss: str) -> np.ndarray:
-    """Derivative of the influence function, ``psi'(e) = rho'(z) + 2 z rho''(z)``, of a loss."""
-    z = (np.asarray(e) / f_scale) ** 2
-    if loss == "linear":
-        return np.ones_like(z)
-    if loss == "soft_l1":
-        return (1.0 + z) ** -1.5
-    if loss == "huber":
-        return np.where(z <= 1.0, 1.0, 0.0)
-    if loss == "cauchy":
-        return (1.0 - z) / (1.0 + z) ** 2
-    if loss == "arctan":
-        return (1.0 - 3.0 * z * z) / (1.0 + z * z) ** 2
-    raise ValueError(f"unknown loss {loss!r}")
 
 
 def polish(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: str = "soft_l1",
@@ -167,15 +136,6 @@ def _frozen_spin_step(A, grad, prob, x):
     basis = np.linalg.svd(c[None, :])[2][1:]  # (4, 5): orthonormal, orthogonal to c
     y = -np.linalg.solve(basis @ A @ basis.T, basis @ grad)
     return basis.T @ y
-
-
-def robust_cost(e: np.ndarray, f: float, loss: str) -> float:
-    """Sum of ``rho((e / f)^2)`` (scipy's least_squares cost without the factor f^2 / 2)."""
-    z = (e / f) ** 2
-    rho = {"linear": lambda z: z, "soft_l1": lambda z: 2 * (np.sqrt(1 + z) - 1),
-           "huber": lambda z: np.where(z <= 1, z, 2 * np.sqrt(np.maximum(z, 1)) - 1),
-           "cauchy": np.log1p, "arctan": np.arctan}[loss]
-    return float(np.sum(rho(z)))
 
 
 def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: float,

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import ConvergenceError
+from airmat.calib.robust_loss import loss_weights, robust_cost
 
 __all__ = ["CylinderFrame", "CylinderProblem", "left_jacobian", "residuals", "residuals_and_jacobian",
            "arc_position", "arc_from_local", "distance_from_local", "refine", "RefineResult",
@@ -271,7 +272,7 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     f_scale : float
         Residual scale of the robust loss (m), about the noise standard deviation.
     loss : str
-        A loss of :func:`airmat.calib.cylinder_irls.loss_weights` ("soft_l1", "huber",
+        A loss of :func:`airmat.calib.robust_loss.loss_weights` ("soft_l1", "huber",
         "cauchy", "arctan", "linear"), as scipy's least_squares defines them.
     max_nfev : int
         Most function evaluations.
@@ -288,8 +289,6 @@ def refine(points: np.ndarray, frame: CylinderFrame, *, f_scale: float, loss: st
     airmat.errors.ConvergenceError
         If the fit produced non-finite parameters.
     """
-    from airmat.calib.cylinder_irls import loss_weights, robust_cost  # that module builds on this one
-
     prob = CylinderProblem(np.asarray(points, dtype=float), frame)
     f = f_scale / prob.scale
     x = prob.x0()

@@ -8,7 +8,8 @@ as a cylinder fit of a scan reads it (the calibrated curve is Equation 3 fitted
 to such fits). Each simulated κ₁ is then read back
 through the calibrated Equation 3 (posterior median Δ, d): the real length l
 that bends the real mattress to that κ₁. The rows (l, l*) are the table of
-:class:`~airmat.check.length_map.CalibratedLengthMap`; a last row (L − 2Δ, L) joins
+:class:`CalibratedLengthMap` (defined here, used through
+:func:`airmat.check.length_map.length_map`); a last row (L − 2Δ, L) joins
 the two flat lengths. The table is cached per (airmat version, L, Δ, d,
 mattress thickness, resolution, simulator parameters, specimen layout) under
 ``$AIRMAT_CACHE`` (default ``~/.cache/airmat``), written atomically, so the
@@ -21,11 +22,14 @@ import hashlib
 import json
 import logging
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["calibrated_length_map", "specimen_table", "cache_dir", "N_ROWS"]
+from airmat.errors import InputError
+
+__all__ = ["CalibratedLengthMap", "calibrated_length_map", "specimen_table", "cache_dir", "N_ROWS"]
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +37,95 @@ log = logging.getLogger(__name__)
 N_ROWS = 8
 #: the table's longest simulated rest length, as a fraction of L (the last row, L itself, is not simulated)
 _TOP = 0.97
+
+
+@dataclass(frozen=True)
+class CalibratedLengthMap:
+    """Real string length -> simulated rest length through a table of simulated specimens (m).
+
+    Between the table's rows the map is a monotone cubic (PCHIP) of l_sim / L
+    over l / L, and its inverse that cubic's exact inverse (bisection). Outside
+    the table each end continues with slope 1 (a constant end slip, l* = l + s
+    with s the end row's l_sim − l; the last row is Equation 3's flat length
+    L − 2Δ at the simulator's flat length L, so above the table s = 2Δ), and
+    says so in the log.
+
+    Attributes
+    ----------
+    L : float
+        String spacing of the specimens (m).
+    l_real, l_sim : ndarray of shape (n,)
+        The table, both strictly increasing (m).
+    delta : float
+        Δ (m) of the calibration median the table reproduces.
+    d : float
+        Equation 3's d (m) of the calibration median.
+    resolution, thickness : float
+        Mesh edge length and mattress thickness (m) the specimens were simulated at.
+    """
+
+    L: float
+    l_real: np.ndarray
+    l_sim: np.ndarray
+    delta: float
+    d: float
+    resolution: float
+    thickness: float
+
+    def __post_init__(self):
+        r, s = np.asarray(self.l_real, float), np.asarray(self.l_sim, float)
+        if r.ndim != 1 or r.shape != s.shape or r.size < 2:
+            raise InputError(f"length table: expected two arrays of shape (n,), n >= 2; got {r.shape} and {s.shape}")
+        if not (np.all(np.diff(r) > 0) and np.all(np.diff(s) > 0)):
+            raise InputError("length table: real and simulated lengths must both increase strictly",
+                             l_real=r, l_sim=s)
+        object.__setattr__(self, "l_real", r)
+        object.__setattr__(self, "l_sim", s)
+
+    def _forward(self, x):
+        from scipy.interpolate import PchipInterpolator
+
+        return PchipInterpolator(self.l_real / self.L, self.l_sim / self.L, extrapolate=False)(x / self.L) * self.L
+
+    def _outside(self, x, xs, ys, inside, what):
+        """``inside`` where x lies in [xs[0], xs[-1]], else the end rows continued with slope 1."""
+        lo, hi = x < xs[0], x > xs[-1]
+        if lo.any() or hi.any():
+            log.info("%d %s length(s) outside the calibrated table [%.1f, %.1f] mm: continued with a constant "
+                     "end slip", int(lo.sum() + hi.sum()), what, xs[0] * 1e3, xs[-1] * 1e3)
+        return np.where(hi, x + (ys[-1] - xs[-1]), np.where(lo, x + (ys[0] - xs[0]), inside))
+
+    def to_simulated(self, l) -> np.ndarray:
+        """Simulated rest lengths (m) of real lengths ``l`` (m), any shape, monotone.
+
+        Examples
+        --------
+        >>> m = CalibratedLengthMap(0.3, np.array([0.1, 0.264]), np.array([0.16, 0.3]), 0.018, 0.07, 0.04, 0.07)
+        >>> m.to_simulated([0.1, 0.264, 0.28]).round(4).tolist()
+        [0.16, 0.3, 0.316]
+        """
+        l = np.asarray(l, float)
+        return self._outside(l, self.l_real, self.l_sim, self._forward(l), "real")
+
+    def to_real(self, l_sim) -> np.ndarray:
+        """Real lengths (m) whose simulated rest length is ``l_sim`` (m): the inverse of :meth:`to_simulated`.
+
+        Examples
+        --------
+        >>> m = CalibratedLengthMap(0.3, np.array([0.1, 0.264]), np.array([0.16, 0.3]), 0.018, 0.07, 0.04, 0.07)
+        >>> bool(np.allclose(m.to_real(m.to_simulated([0.05, 0.2, 0.29])), [0.05, 0.2, 0.29]))
+        True
+        """
+        l_sim = np.asarray(l_sim, float)
+        # the exact inverse of the monotone cubic: bisection inside the row interval that holds l_sim
+        # (a PCHIP of the swapped rows would differ from the inverse between the rows)
+        i = np.clip(np.searchsorted(self.l_sim, l_sim) - 1, 0, self.l_sim.size - 2)
+        lo, hi = self.l_real[i], self.l_real[i + 1]
+        for _ in range(60):                        # 2^-60 of a row interval: below a nanometre
+            mid = 0.5 * (lo + hi)
+            below = self._forward(mid) < l_sim
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return self._outside(l_sim, self.l_sim, self.l_real, 0.5 * (lo + hi), "simulated")
 
 
 def cache_dir() -> Path:
@@ -101,7 +194,7 @@ def _key(**values) -> tuple[str, dict]:
 
 
 def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, workers=1, cache=True):
-    """The :class:`~airmat.check.length_map.CalibratedLengthMap` of a calibration median, from the cache or simulated.
+    """The :class:`CalibratedLengthMap` of a calibration median, from the cache or simulated.
 
     Parameters
     ----------
@@ -121,7 +214,6 @@ def calibrated_length_map(*, L, delta, d, thickness, resolution, params=None, wo
     CalibratedLengthMap
     """
     from airmat.atomic import atomic_write_text
-    from airmat.check.length_map import CalibratedLengthMap
     from airmat.check.validation import SpecimenLayout
     from airmat.inflation.model import Parameters
 

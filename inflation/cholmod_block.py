@@ -45,6 +45,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from airmat.cores import idle_cores
+from airmat.inflation.cvxopt_libs import cvxopt_bundled_library
 
 __all__ = ["solve_many", "available", "column_blocks", "ALIGN", "MIN_SPLIT"]
 
@@ -146,8 +147,6 @@ def column_blocks(n: int, k: int, threads: int) -> list[tuple[int, int]]:
 @functools.cache
 def _library() -> _Library | None:
     """cvxopt's libcholmod when it is CHOLMOD 3 to 5 with the long-integer interface; else None."""
-    from airmat.inflation.cholesky import cvxopt_bundled_library
-
     try:
         lib = cvxopt_bundled_library("cholmod")     # the library cvxopt has loaded: the same handle
         if lib is None:

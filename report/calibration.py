@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from airmat.units import M_TO_MM
-from airmat.report.page import Part, figure_html
+from airmat.report.part import Part, figure_html
 from airmat.report.table import html_table
 
 __all__ = ["curve_figure", "calibration_part"]
@@ -73,7 +73,7 @@ def calibration_part(cal) -> Part:
 
     Returns
     -------
-    airmat.report.page.Part
+    airmat.report.part.Part
     """
     p = cal.posterior
     params = html_table(["parameter", "median", "2.5 %", "97.5 %"], [

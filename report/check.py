@@ -14,7 +14,7 @@ import numpy as np
 
 from airmat.units import M_TO_MM
 from airmat.report.mesh import display_grid, mesh3d_trace
-from airmat.report.page import Part, figure_html
+from airmat.report.part import Part, figure_html
 from airmat.report.table import html_table
 
 __all__ = ["overlay_figure", "curvature_figure", "band_figure", "monte_carlo_table", "check_part"]
@@ -147,7 +147,7 @@ def check_part(check, *, with_design_banner: bool = True) -> Part:
 
     Returns
     -------
-    airmat.report.page.Part
+    airmat.report.part.Part
     """
     d = check.design
     banners = []

@@ -10,7 +10,7 @@ import numpy as np
 from airmat.units import M_TO_MM
 from airmat.design.constructibility import edge_sigma
 from airmat.report.mesh import display_grid, mesh3d_trace
-from airmat.report.page import Part, figure_html
+from airmat.report.part import Part, figure_html
 from airmat.report.table import html_table
 
 __all__ = ["pattern_figure", "surface_figure", "vertex_sigma", "cutting_rows", "design_part", "CUTTING_COLUMNS"]
@@ -166,7 +166,7 @@ def design_part(result) -> Part:
 
     Returns
     -------
-    airmat.report.page.Part
+    airmat.report.part.Part
     """
     from html import escape
 

@@ -6,6 +6,8 @@ import logging
 import re
 
 from airmat.cli._ranges import RANGES, check_range
+from airmat.cli._refining import (check_corrections, check_regularization, check_rounds, refine_lines,
+                                  refine_not_converged, refine_options, wrote_line)
 from airmat.constants import PAPER_D
 from airmat.errors import InputError
 from airmat.units import mm_to_m
@@ -182,18 +184,9 @@ def summary_text(doc: dict, out) -> str:
     if flagged:
         lines.append(f"  {flagged} strings beyond reach of the calibration (flagged in design.json)")
     if doc.get("refine"):
-        from airmat.cli.refine import refine_lines
         lines.extend(refine_lines(doc["refine"]))
     lines.append(wrote_line(out))
     return "\n".join(lines)
-
-
-def wrote_line(out) -> str:
-    """The line naming the files of a published design folder (design.json first)."""
-    from airmat.listing import listed
-    from airmat.design.design_io import OUTPUT_FILES
-
-    return f"  wrote {listed(out, OUTPUT_FILES)} to {out}"
 
 
 def run(args) -> int:
@@ -222,7 +215,6 @@ def run(args) -> int:
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     if args.refine and not (args.refine_resolution_mm > 0):
         raise InputError(f"--refine-resolution-mm must be > 0, got {args.refine_resolution_mm!r}")
-    from airmat.cli.refine import check_corrections, check_regularization, check_rounds, refine_options
     check_regularization("--refine-regularization", args.refine_regularization)
     check_rounds("--refine-reparametrize", args.refine_reparametrize)
     check_corrections("--refine-defect-corrections", args.refine_defect_corrections, args.refine_single_level,
@@ -244,11 +236,6 @@ def run(args) -> int:
         write_report(tmp, design=result, title=f"airmat design: {result.name}")
     print(summary_text(doc, args.out))
     return not_converged("design", failed)
-
-
-def refine_not_converged(refinement) -> list[str]:
-    """What did not converge in a refinement, if one ran (its best lengths are written, never worse than open loop)."""
-    return [] if refinement is None or refinement.converged else [f"refinement: {refinement.message}"]
 
 
 def design_not_converged(result) -> list[str]:
