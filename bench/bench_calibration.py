@@ -11,7 +11,8 @@
 Prints Markdown tables. Usage::
 
     .venv/bin/python bench/bench_calibration.py                  # the full benchmark
-    .venv/bin/python bench/bench_calibration.py --points 20000 --model-n 2000   # quick
+    .venv/bin/python bench/bench_calibration.py --points 20000 --model-n 2000   # smaller
+    .venv/bin/python bench/bench_calibration.py --quick     # a smoke run: 4 specimens x 5000 points, 300 MCMC steps
 """
 
 from __future__ import annotations
@@ -71,13 +72,13 @@ def _timed(fn) -> float:
     return time.perf_counter() - t0
 
 
-def bench_calibration(points: int, n_specimens: int, seed: int, folder: Path) -> dict:
+def bench_calibration(points: int, n_specimens: int, seed: int, folder: Path, max_steps: int = 4000) -> dict:
     ratios = DEFAULT_L_OVER_L if n_specimens == 12 else np.round(np.linspace(0.3, 0.95, n_specimens), 4)
     t0 = time.perf_counter()
     cs = calibration_set(folder, l_over_L=ratios, n_points=points, seed=seed)
     t_synth = time.perf_counter() - t0
     t0, c0 = time.perf_counter(), time.process_time()
-    cal = calibrate(cs.manifest, seed=seed)
+    cal = calibrate(cs.manifest, seed=seed, max_steps=max_steps)
     total, cpu = time.perf_counter() - t0, time.process_time() - c0
     return dict(cal=cal, truth=cs.truth, total=total, cpu=cpu, synth=t_synth)
 
@@ -89,8 +90,13 @@ def main(argv=None) -> int:
     ap.add_argument("--model-n", type=int, default=10_000, help="elements of the model comparison")
     ap.add_argument("--repeats", type=int, default=3, help="repeats of the vectorized timing (best of)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--max-steps", type=int, default=4000, help="cap of the MCMC chain (calibrate's max_steps)")
     ap.add_argument("--skip-calibration", action="store_true", help="only the model comparison")
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run: 4 specimens x 5000 points, 300 MCMC steps (not converged), 1000 elements")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.points, args.specimens, args.model_n, args.repeats, args.max_steps = 5000, 4, 1000, 1, 300
 
     print("## Equation 3: vectorized `kappa1` vs scalar `brentq` loop\n")
     print("| n | vectorized (s) | brentq loop (s) | speed-up | max rel. diff | one (16 x 12) MCMC call (ms) |")
@@ -101,7 +107,7 @@ def main(argv=None) -> int:
     if args.skip_calibration:
         return 0
     with tempfile.TemporaryDirectory(prefix="bench_calibration_") as tmp:
-        r = bench_calibration(args.points, args.specimens, args.seed, Path(tmp) / "set")
+        r = bench_calibration(args.points, args.specimens, args.seed, Path(tmp) / "set", args.max_steps)
     cal, truth, t = r["cal"], r["truth"], r["cal"].timings
     p = cal.posterior
     print(f"\n## Calibration end to end: {args.specimens} specimens x {args.points} points\n")

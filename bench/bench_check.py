@@ -3,7 +3,7 @@
 Usage::
 
     .venv/bin/python bench/bench_check.py            # vault1 (small) and vault2 (large) at 20 mm
-    .venv/bin/python bench/bench_check.py --quick    # vault1 at 40 mm
+    .venv/bin/python bench/bench_check.py --quick    # a smoke run: vault1 at 40 mm
 
 ``airmat.check.inflation_check.check`` with ``workers=1`` (the three runs in
 this process, the baseline) and ``workers=2`` (what ``airmat inflate`` uses on
@@ -32,7 +32,7 @@ from airmat.check.inflation_check import check  # noqa: E402
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="vault1 at 40 mm only")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 40 mm only")
     ap.add_argument("--workers", type=int, default=2, help="processes of the parallel row (default 2)")
     args = ap.parse_args(argv)
     cases = [("vault1", 40.0)] if args.quick else [("vault1", 20.0), ("vault2", 20.0)]

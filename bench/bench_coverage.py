@@ -3,6 +3,7 @@
 Usage::
 
     .venv/bin/python bench/bench_coverage.py [--presets vault1,saddle,dome,vault2,roof]
+    .venv/bin/python bench/bench_coverage.py --quick      # a smoke run: vault1 only
 
 Each preset is designed with the defaults (paper calibration values, seed 0)
 and its ``pattern.coverage`` (what ``design.json`` → ``summary.coverage``
@@ -28,7 +29,10 @@ from designed_preset import designed_preset  # noqa: E402
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", default="vault1,saddle,dome,vault2,roof")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 only")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.presets = "vault1"
     print("| preset | k1 hole / weak / edge band, max (mm) | k2 hole / weak / edge band, max (mm) |")
     print("|---|---|---|")
     for name in args.presets.split(","):

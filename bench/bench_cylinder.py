@@ -36,12 +36,15 @@ Run:  .venv/bin/python bench/bench_cylinder.py --sizes 100000,1000000 --repeats 
 Process:  .venv/bin/python bench/bench_cylinder.py --sizes 0 --process 1280000
 Formats:  .venv/bin/python bench/bench_cylinder.py --sizes 0 --formats 1000000
 Quick check:  .venv/bin/python bench/bench_cylinder.py --sizes 20000 --repeats 1 --cf-points 200
+Smoke run:  .venv/bin/python bench/bench_cylinder.py --quick   (20,000 points, one scan, small peer budgets;
+            a peer that is not installed is skipped with a note: pip install -e ".[bench]")
 Targets (airmat): 1,000,000 points under 1.5 s with radius error < 0.1 %; 100k well under 1 s.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import logging
 import os
 import sys
@@ -79,7 +82,12 @@ def _timed(fn, *args, **kw):
         return np.nan, time.perf_counter() - t0, f"{type(err).__name__}: {err}"[:60]
 
 
-def run(sizes, repeats, seed, kappa, arc_deg, ransac_points, ransac_iterations, cf_points, peers):
+#: the peer libraries (the ``bench`` extra of pyproject.toml)
+PEERS = ("pyransac3d", "cylinder_fitting")
+
+
+def run(sizes, repeats, seed, kappa, arc_deg, ransac_points, ransac_iterations, cf_points, peers=PEERS):
+    """Rows of the peer table; ``peers``: the names of PEERS to run beside airmat and the recipe."""
     rows = []
     for n in sizes:
         stats = {}
@@ -89,11 +97,12 @@ def run(sizes, repeats, seed, kappa, arc_deg, ransac_points, ransac_iterations, 
             R = scan.radius
             runs = [("airmat", n, "-", lambda: fit_cylinder(scan.points, seed=seed).radius),
                     ("recipe", n, "-", lambda: recipe_fit(scan.points, seed=seed))]
-            if peers:
+            if "pyransac3d" in peers:
                 m = min(n, ransac_points)
                 sub = scan.points[rng.choice(n, m, replace=False)]
                 runs.append(("pyransac3d", m, str(ransac_iterations),
                              lambda: pyransac3d_fit(sub, 3 * scan.noise, ransac_iterations)))
+            if "cylinder_fitting" in peers:
                 k = min(n, cf_points)
                 sub2 = scan.points[rng.choice(n, k, replace=False)]
                 runs.append(("cylinder_fitting", k, "-", lambda: cylinder_fitting_fit(sub2)))
@@ -335,12 +344,22 @@ def main(argv=None):
                    help="also time `airmat fit` and the recipe script as whole processes on an N-point "
                         "binary PLY (0: skip)")
     p.add_argument("--process-repeats", type=int, default=5, help="runs of each process")
+    p.add_argument("--quick", action="store_true",
+                   help="a smoke run: one 20,000-point scan, small peer budgets, peers not installed skipped")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
+    peers = () if args.no_peers else PEERS
+    if args.quick:
+        args.sizes, args.repeats, args.cf_points = "20000", 1, 200
+        args.ransac_points, args.ransac_iterations = 2000, 20
+        missing = [name for name in peers if importlib.util.find_spec(name) is None]
+        for name in missing:
+            print(f"note: {name} is not installed, skipped (pip install -e \".[bench]\")\n")
+        peers = tuple(name for name in peers if name not in missing)
     sizes = [int(s) for s in args.sizes.split(",") if s.strip() and int(s) > 0]
     if sizes:
         rows = run(sizes, args.repeats, args.seed, args.kappa, args.arc_deg, args.ransac_points,
-                   args.ransac_iterations, args.cf_points, not args.no_peers)
+                   args.ransac_iterations, args.cf_points, peers)
         print(markdown(rows, args.repeats, args.kappa, args.arc_deg))
     if args.process:
         rows, ratio, floor_ratio = process_rows(args.process, args.seed, args.kappa, args.arc_deg,

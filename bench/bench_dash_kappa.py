@@ -5,6 +5,7 @@ Usage::
     .venv/bin/python bench/bench_dash_kappa.py [--presets vault1,saddle,dome,vault2,roof] [--resolution-mm 20]
     .venv/bin/python bench/bench_dash_kappa.py --refine     # the same, at the refined lengths
     .venv/bin/python bench/bench_dash_kappa.py --calibrated-map   # checked through the calibrated length map
+    .venv/bin/python bench/bench_dash_kappa.py --quick    # a smoke run: vault1 at 40 mm
 
 Each preset is designed with the defaults (paper calibration values, seed 0),
 inflated at its median lengths (``airmat.check.inflation_check.check``, no envelope)
@@ -48,7 +49,10 @@ def main(argv=None) -> int:
     ap.add_argument("--refine", action="store_true", help="measure the refined designs")
     ap.add_argument("--calibrated-map", action="store_true",
                     help="check through the calibrated length map (open loop only)")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 40 mm")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.presets, args.resolution_mm = "vault1", 40.0
     if args.refine and args.calibrated_map:
         ap.error("--calibrated-map measures the open-loop designs; drop --refine")
     print("| preset | family | dashes with \\|κ\\| ≥ 1 | turning: median | p10 – p90 | within 10 % "

@@ -4,6 +4,7 @@ Usage::
 
     .venv/bin/python bench/bench_density.py                               # vault1, saddle at 20 mm
     .venv/bin/python bench/bench_density.py --presets vault1 --resolution-mm 40 --patterns 400x100,300x50
+    .venv/bin/python bench/bench_density.py --quick       # a smoke run: vault1, 300x50, 40 mm
 
 Each pattern ``MU1xMU2`` (mm; L stays the calibration's 300 mm) designs the
 preset (paper calibration values, seed 0), inflates it at its median string
@@ -75,7 +76,10 @@ def main(argv=None) -> int:
     ap.add_argument("--patterns", default="400x100,300x100,400x50,300x50",
                     help="comma-separated MU1xMU2 in mm (default: the old default 400x100 and denser ones)")
     ap.add_argument("--resolution-mm", type=float, default=20.0)
+    ap.add_argument("--quick", action="store_true", help="a smoke run: vault1, the default 300x50, 40 mm")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.presets, args.patterns, args.resolution_mm = "vault1", "300x50", 40.0
     print("| preset | mu1 x mu2 (mm) | strings | k1 gap p95 // max (mm) | k2 gap p95 // max (mm) "
           "| mid RMS (mm) | top RMS (mm) | bottom RMS (mm) | best face % diag | converged | s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|", flush=True)

@@ -6,6 +6,7 @@ Usage::
     .venv/bin/python bench/bench_design.py --presets vault1 --spacing-mm 40
     .venv/bin/python bench/bench_design.py --repeats 3          # medians of 3 runs and the spread
     .venv/bin/python bench/bench_design.py --repeats 3 --bvh-threads 1 auto   # the closest-point threads
+    .venv/bin/python bench/bench_design.py --quick          # a smoke run: vault1, 40 mm mesh, once
 
 Prints a Markdown table: seconds per stage (preset build, the surface
 side's triangulate / relax / curvature / report, transfer to Ω, stripes,
@@ -100,7 +101,10 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=1, help="runs of every preset (medians reported)")
     parser.add_argument("--bvh-threads", nargs="+", default=None, metavar="N|auto",
                         help="closest-point threads, one row each (a number, or auto: the default)")
+    parser.add_argument("--quick", action="store_true", help="a smoke run: vault1 on a 40 mm mesh, once")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.presets, args.spacing_mm, args.repeats = ["vault1"], 40.0, 1
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     cases = [(name, th) for name in args.presets for th in (args.bvh_threads or ["auto"])]
     runs = [[bench_one(name, args.spacing_mm * 1e-3, threads=th) for name, th in cases]

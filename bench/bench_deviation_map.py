@@ -4,6 +4,7 @@ Usage::
 
     .venv/bin/python bench/bench_deviation_map.py [--presets vault1,saddle] [--resolution-mm 20]
     .venv/bin/python bench/bench_deviation_map.py --refine      # the same, at the refined lengths
+    .venv/bin/python bench/bench_deviation_map.py --quick       # a smoke run: vault1 at 40 mm
 
 Each preset is designed with the defaults (paper calibration values, seed 0)
 and inflated at its median lengths (``airmat.check.inflation_check.check``, no
@@ -57,7 +58,10 @@ def main(argv=None) -> int:
     ap.add_argument("--near-mm", type=float, default=80.0,
                     help="a vertex this close to a string is near one (default 80 mm, the coverage limit)")
     ap.add_argument("--refine", action="store_true", help="measure the refined designs")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 40 mm")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.presets, args.resolution_mm = "vault1", 40.0
     print(f"| preset | lengths | face | RMS mm (% diag) | edge strip ({args.edge_mm:g} mm): share of Ω | "
           f"edge strip RMS mm (share of squared) | inside RMS mm (share) | farther than {args.near_mm:g} mm "
           "from a string: share of Ω | its RMS mm (share) | RMS mm by thirds of Ω (v high → low; u left → right) |")

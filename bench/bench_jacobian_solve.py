@@ -3,7 +3,7 @@
 Usage::
 
     .venv/bin/python bench/bench_jacobian_solve.py            # vault1, vault2 and the roof at 40 mm
-    .venv/bin/python bench/bench_jacobian_solve.py --quick    # vault1 only
+    .venv/bin/python bench/bench_jacobian_solve.py --quick    # a smoke run: vault1, one solve each
 
 The refinement's Gauss–Newton iterations run on the 40 mm mesh (``refine(...,
 coarsest=0.04)``), and each one solves with the factor of the Newton matrix
@@ -18,8 +18,8 @@ Columns: :meth:`~airmat.inflation.cholesky.ShiftedCholesky.solve` with ``one_cal
 columns) and on two (two column blocks side by side, what it does when a core
 is idle and the right-hand side is large: ``column_blocks``), median of 3; the
 largest difference between the first two relative to the solution, and
-whether the two-thread answer is the same bits as the one-thread one. Run it
-on an idle machine: the two-thread column needs the second core.
+whether the two-thread answer is the same bits as the one-thread one (``--quick``: vault1, one
+solve each). Run it on an idle machine: the two-thread column needs the second core.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def _median(fn, repeat: int = 3):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="vault1 only")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: vault1, one solve each")
     ap.add_argument("--resolution-mm", type=float, default=40.0)
     args = ap.parse_args(argv)
     if not available():
@@ -80,9 +80,10 @@ def main(argv=None) -> int:
         assert chol.factor(h, 1e-2 * float(np.mean(np.abs(h.diagonal()))))
         b = np.random.default_rng(0).normal(size=(h.shape[0], len(strings.rest)))
 
-        t_col, x_col = _median(lambda: chol.solve(b, one_call=False))
-        t_all, x_all = _median(lambda: solve_many(chol._symbolic, b, threads=1))
-        t_two, x_two = _median(lambda: solve_many(chol._symbolic, b, threads=2))
+        repeat = 1 if args.quick else 3
+        t_col, x_col = _median(lambda: chol.solve(b, one_call=False), repeat)
+        t_all, x_all = _median(lambda: solve_many(chol._symbolic, b, threads=1), repeat)
+        t_two, x_two = _median(lambda: solve_many(chol._symbolic, b, threads=2), repeat)
         diff = float(np.abs(x_all - x_col).max() / np.abs(x_col).max())
         blocks = column_blocks(*b.shape, threads=2)
         print(f"| {preset} | {design.mattress.width / MM:.0f} x {design.mattress.height / MM:.0f} | {h.shape[0]} "

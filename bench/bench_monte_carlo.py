@@ -4,6 +4,7 @@ Usage::
 
     .venv/bin/python bench/bench_monte_carlo.py                      # 32 samples at 20 mm (the case)
     .venv/bin/python bench/bench_monte_carlo.py --samples 8 --resolution-mm 60   # a loaded machine
+    .venv/bin/python bench/bench_monte_carlo.py --quick     # a smoke run: 2 samples at 60 mm
 
 Rows, all on the same K string-length samples (``airmat.check.monte_carlo.draw``, seed 0):
 
@@ -56,7 +57,10 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=32)
     ap.add_argument("--resolution-mm", type=float, default=20.0)
     ap.add_argument("--sigma-per-m", type=float, default=0.3, help="nominal scatter sigma (1/m), stated")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: 2 samples at 60 mm")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.samples, args.resolution_mm = 2, 60.0
     logging.getLogger().setLevel(logging.WARNING)
 
     design = designed_preset("vault1")

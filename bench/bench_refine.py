@@ -12,6 +12,7 @@ Usage::
     .venv/bin/python bench/bench_refine.py --presets roof --jacobian-solve per-column all-at-once
     .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --draws 4 --damping-hold 0 1
     .venv/bin/python bench/bench_refine.py --presets vault1 saddle dome --draws 4 --trial-newton 12 15 20
+    .venv/bin/python bench/bench_refine.py --quick          # a smoke run: vault1 at 40 mm, one iteration
 
 Each row: the deviation of the named face from Ŝ at the open-loop lengths
 and at the refined ones (what ``airmat inflate`` reports: the open-loop
@@ -111,7 +112,11 @@ def main(argv=None) -> int:
     ap.add_argument("--from-flat", action="store_true",
                     help="a last column: the refined lengths inflated from the flat mattress (not counted in the "
                          "time), against the check's path from the open-loop equilibrium")
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run: vault1 at 40 mm, one Gauss–Newton iteration, one draw")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.presets, args.resolution_mm, args.max_iter, args.draws = ["vault1"], 40.0, 1, 1
     if args.trial_newton and min(args.trial_newton) < 1:
         ap.error(f"--trial-newton: a trial needs at least 1 Newton iteration, got {args.trial_newton}")
     names = list(PRESETS) if args.presets == ["all"] else args.presets

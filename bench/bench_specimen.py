@@ -3,6 +3,7 @@
 Usage::
 
     .venv/bin/python bench/bench_specimen.py [--series 3,4,5] [--resolutions-mm 20,12.5,10] [--l-over-L 0.4,0.9]
+    .venv/bin/python bench/bench_specimen.py --quick     # a smoke run: 3 strings per row, 40 mm, l/L 0.9
 
 Each row is one strip (``n_series`` chained strings per row, rows aligned, L =
 300 mm, d = 70 mm, Δ = 0) on one mesh, inflated at one l/L, as ``airmat
@@ -44,7 +45,10 @@ def main(argv=None) -> int:
     ap.add_argument("--series", default="3,4,5", help="strings per row (comma-separated; at least 3)")
     ap.add_argument("--resolutions-mm", default="20", help="mesh edge lengths (comma-separated)")
     ap.add_argument("--l-over-L", dest="ratios", default="0.4,0.9", help="string length ratios (comma-separated)")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: 3 strings per row, 40 mm, l/L 0.9")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.series, args.resolutions_mm, args.ratios = "3", "40", "0.9"
     ratios = _floats(args.ratios)
     print("| strings per row | strip (mm) | mesh (mm) | l/L | κ₁ polygon (1/m) | Equation 3 (1/m) | difference "
           "| side (mm) | L* (mm) | side / L* | angle (°) | θ (°) | sections, middle 2L | sections, strung length "

@@ -2,13 +2,18 @@
 
 Usage::
 
-    .venv/bin/python bench/bench_startup.py                       # baseline fa1ff47, 5 runs each
+    .venv/bin/python bench/bench_startup.py                       # baseline 7e868d2, 5 runs each
     .venv/bin/python bench/bench_startup.py --baseline HEAD~3 --runs 9
+    .venv/bin/python bench/bench_startup.py --quick               # a smoke run: baseline HEAD, 3 cases, 1 run
 
 The baseline is checked out with ``git worktree add`` into a temporary folder
-(removed at the end). Each case runs in a fresh interpreter with
-``PYTHONPATH`` set to one tree, baseline and current alternating so that a
-busy machine slows both alike; the wall time is the median of ``--runs``
+(removed at the end). Each case runs in a fresh interpreter whose ``airmat``
+and subpackages import from one tree (``airmat.calib`` from its ``calib/``
+and so on, as its pyproject.toml's ``package-dir`` installs them: a finder put
+first on ``sys.meta_path``, so that the editable install of the current tree
+does not answer for the baseline), baseline and current alternating so that a
+busy machine slows both alike. Both trees must have the one import root
+``airmat`` (7e868d2 and later); the wall time is the median of ``--runs``
 runs. The "loaded" column lists the heavy libraries left in ``sys.modules``.
 A second table gives the largest third-party (not first-party, not standard-library) imports of each case by
 cumulative ``-X importtime`` (one run, per top-level package). Prints
@@ -26,29 +31,45 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-FIRST_PARTY = {"airmat", "calib", "design", "inflation", "check", "data_synthetic"}
+FIRST_PARTY = {"airmat"}
+#: the heavy libraries and airmat's heavy stages, as listed in the "loaded" columns
 HEAVY = ("numpy", "scipy", "matplotlib", "ezdxf", "cvxopt", "igl", "trimesh", "emcee", "open3d", "skimage",
-         "dash", "plotly", "design", "inflation", "check")
+         "dash", "plotly", "airmat.design", "airmat.inflation", "airmat.check")
 
 _HELP = "import contextlib, io\nfrom airmat.cli import main\n" \
         "with contextlib.redirect_stdout(io.StringIO()):\n    try:\n        main(['--help'])\n" \
         "    except SystemExit:\n        pass\n"
 
 
-def _mesh_module(tree: Path) -> str:
-    """The inflation mesh module: ``airmat.inflation.mesh``, formerly ``design.inflation.mesh``."""
-    return "airmat.inflation.mesh" if (tree / "inflation" / "mesh.py").exists() else "design.inflation.mesh"
+def package_dirs(tree: Path) -> dict[str, str]:
+    """``airmat`` and each subpackage -> its folder in ``tree`` (pyproject.toml's ``package-dir``)."""
+    with open(tree / "pyproject.toml", "rb") as f:
+        dirs = tomllib.load(f).get("tool", {}).get("setuptools", {}).get("package-dir", {})
+    if "airmat" not in dirs:
+        raise SystemExit(f"{tree}: no package-dir for 'airmat' in pyproject.toml: the tree predates the one "
+                         "import root airmat (7e868d2); pick a later --baseline")
+    return {name: str(tree / folder) for name, folder in dirs.items()}
+
+
+def _finder(tree: Path) -> str:
+    """Code that makes ``airmat`` and its subpackages import from ``tree`` (run before each case)."""
+    return ("import sys\nfrom importlib.util import spec_from_file_location as _spec\n"
+            f"_DIRS = {package_dirs(tree)!r}\n"
+            "class _Tree:\n"
+            "    @staticmethod\n"
+            "    def find_spec(name, path=None, target=None):\n"
+            "        d = _DIRS.get(name)\n"
+            "        return None if d is None else _spec(name, d + '/__init__.py', submodule_search_locations=[d])\n"
+            "sys.meta_path.insert(0, _Tree)\n")
 
 
 def _open3d(tree: Path) -> str:
-    """open3d with a ray-casting scene (the designer's closest points), as ``tree`` imports it."""
-    lazy = tree / "airmat" / "lazy.py"
-    if lazy.exists() and "def import_open3d" in lazy.read_text():
-        return "from airmat.lazy import import_open3d\nimport_open3d().t.geometry.RaycastingScene()\n"
-    return "import open3d\nopen3d.t.geometry.RaycastingScene()\n"
+    """open3d with a ray-casting scene (the designer's closest points), as airmat imports it."""
+    return "from airmat.lazy import import_open3d\nimport_open3d().t.geometry.RaycastingScene()\n"
 
 
 def cases(tree: Path) -> list[tuple[str, str]]:
@@ -57,14 +78,18 @@ def cases(tree: Path) -> list[tuple[str, str]]:
     return [
         ("python -c pass (interpreter only)", "pass"),
         ("`airmat --help`", _HELP),
-        ("`import calib`", "import calib"),
-        ("`import design`", "import design"),
-        (f"`import {_mesh_module(tree)}`", f"import {_mesh_module(tree)}"),
+        ("`import airmat.calib`", "import airmat.calib"),
+        ("`import airmat.design`", "import airmat.design"),
+        ("`import airmat.inflation.mesh`", "import airmat.inflation.mesh"),
         ("`airmat fit` imports", parser + "import airmat.cli.fit, airmat.calib.cylinder_fit, airmat.calib.scan_io"),
         ("`airmat calibrate` imports", parser + "import airmat.cli.calibrate, airmat.calib.calibrate, airmat.calib.plots, "
                                                 "airmat.calib.calibration_io"),
         ("open3d for the closest points (`airmat design`, `refine`)", _open3d(tree)),
     ]
+
+
+#: the cases of a --quick run
+QUICK_CASES = ("python -c pass (interpreter only)", "`airmat --help`", "`import airmat.inflation.mesh`")
 
 
 def _env(tree: Path) -> dict:
@@ -73,6 +98,7 @@ def _env(tree: Path) -> dict:
 
 def wall_time(tree: Path, code: str) -> float:
     """Seconds for a fresh interpreter to run ``code`` with ``tree`` on the path."""
+    code = _finder(tree) + code
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], env=_env(tree), cwd=tree, check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -80,8 +106,10 @@ def wall_time(tree: Path, code: str) -> float:
 
 
 def loaded(tree: Path, code: str) -> list[str]:
-    """The heavy top-level packages in ``sys.modules`` after ``code``."""
-    probe = code + "\nimport sys, json\nprint(json.dumps(sorted({m.split('.')[0] for m in sys.modules})))"
+    """The heavy packages in ``sys.modules`` after ``code`` (top level; airmat's by subpackage)."""
+    probe = (_finder(tree) + code + "\nimport sys, json\n"
+             "print(json.dumps(sorted({'.'.join(m.split('.')[:2 if m.startswith('airmat.') else 1]) "
+             "for m in sys.modules})))")
     out = subprocess.run([sys.executable, "-c", probe], env=_env(tree), cwd=tree, check=True,
                          capture_output=True, text=True).stdout
     names = set(json.loads(out.strip().splitlines()[-1]))
@@ -93,7 +121,7 @@ def top_imports(tree: Path, code: str, k: int) -> list[tuple[str, float]]:
 
     A package's time is its largest cumulative entry (the first import of any of its modules).
     """
-    err = subprocess.run([sys.executable, "-X", "importtime", "-c", code], env=_env(tree), cwd=tree,
+    err = subprocess.run([sys.executable, "-X", "importtime", "-c", _finder(tree) + code], env=_env(tree), cwd=tree,
                          check=True, capture_output=True, text=True).stderr
     best: dict[str, float] = {}
     for line in err.splitlines():
@@ -116,15 +144,22 @@ def checkout(commit: str, where: Path) -> Path:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--baseline", default="fa1ff47", help="commit to compare with (default fa1ff47)")
+    ap.add_argument("--baseline", default="7e868d2",
+                    help="commit to compare with, with the one import root airmat (default 7e868d2)")
     ap.add_argument("--runs", type=int, default=5, help="runs per case and tree (default 5)")
     ap.add_argument("--top", type=int, default=5, help="largest imports listed per case (default 5)")
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run: baseline HEAD, three of the cases, one run each, top 3")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.baseline, args.runs, args.top = "HEAD", 1, 3
     with tempfile.TemporaryDirectory(prefix="airmat-startup-") as tmp:
         base = checkout(args.baseline, Path(tmp) / "baseline")
         try:
             trees = {"baseline": base, "current": ROOT}
             labelled = {name: cases(tree) for name, tree in trees.items()}
+            if args.quick:                               # the interpreter, `airmat --help`, the simulator
+                labelled = {name: [c for c in rows if c[0] in QUICK_CASES] for name, rows in labelled.items()}
             rows = []
             for i in range(len(labelled["current"])):
                 times = {name: [] for name in trees}
