@@ -1,12 +1,13 @@
 # Two commands on a fresh Debian machine with Python 3.11 (as root):
 #   make demo   -- set everything up on first use, then run the whole pipeline on embedded defaults
 #   make test   -- set everything up on first use, then run the full test suite (what CI runs)
+#   make docs   -- the Sphinx site in docs/_build/html (installs the docs extra on first use; warnings fail it)
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out/demo
 
-.PHONY: demo test test-fast bench setup clean
+.PHONY: demo test test-fast bench docs setup clean
 
 setup: $(STAMP)
 
@@ -31,5 +32,15 @@ bench: $(STAMP)
 	$(PY) -m pip install -q -e ".[bench]"
 	$(PY) bench/run_all.py
 
+# the docs extra (sphinx, myst-parser, furo) once, again when pyproject.toml changes; -W: a warning fails the build
+DOCS_STAMP := $(VENV)/.docs-stamp
+
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install -q -e ".[docs]"
+	@touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(VENV)/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) out build *.egg-info
+	rm -rf $(VENV) out build *.egg-info docs/_build
