@@ -28,8 +28,15 @@ import scipy.sparse as sp
 from airmat.inflation.cholmod_block import solve_many
 from airmat.inflation.cvxopt_libs import cvxopt_blas_kernels, cvxopt_bundled_library, import_cvxopt, openblas_coretype
 
-__all__ = ["ShiftedCholesky", "nested_dissection", "openblas_coretype", "import_cvxopt", "cvxopt_bundled_library",
+__all__ = ["ShiftedCholesky", "nested_dissection", "metis_available", "openblas_coretype", "import_cvxopt", "cvxopt_bundled_library",
            "cvxopt_blas_kernels"]
+
+
+def metis_available() -> bool:
+    """Whether pymetis is installed (it has no Windows wheel: there CHOLMOD's AMD orders the unknowns)."""
+    import importlib.util
+
+    return importlib.util.find_spec("pymetis") is not None
 
 
 def nested_dissection(rows: np.ndarray, cols: np.ndarray, groups: np.ndarray) -> np.ndarray:
@@ -71,7 +78,8 @@ class ShiftedCholesky:
         A symmetric matrix with the common pattern, including every diagonal entry.
     groups : ndarray of shape (n,), optional
         Group (vertex) of each unknown: the ordering is computed on the graph
-        of the groups and keeps a group's unknowns together. Default: AMD.
+        of the groups and keeps a group's unknowns together (METIS nested dissection,
+        where pymetis is installed). Default, and without pymetis: CHOLMOD's AMD.
 
     Attributes
     ----------
@@ -105,7 +113,7 @@ class ShiftedCholesky:
         if int(self._diag.sum()) != self.n:
             raise ValueError("the pattern must contain every diagonal entry")
         self._a = spmatrix(1.0, matrix(rows, tc="i"), matrix(cols, tc="i"), (self.n, self.n))
-        if groups is None:
+        if groups is None or not metis_available():
             self._symbolic = cholmod.symbolic(self._a)
         else:
             perm = nested_dissection(rows, cols, np.asarray(groups, dtype=np.int64))

@@ -27,7 +27,11 @@ __all__ = ["read"]
 
 def read(path: Path, *, scan_index: int | None = None) -> RawCloud:
     """Points of scan ``scan_index`` (all scans, merged with their poses, when None), metres."""
-    import pye57
+    try:
+        import pye57
+    except ImportError:
+        raise InputError("reading E57 needs pye57, which is not installed (it has no wheel for Intel macOS): "
+                         "save the scan as PLY or LAS (CloudCompare: File > Save as)", path=path) from None
 
     try:
         e57 = pye57.E57(str(path), mode="r")

@@ -31,7 +31,9 @@ design gives the same bytes.
 
 from __future__ import annotations
 
+import logging
 import uuid
+from pathlib import Path
 
 import numpy as np
 
@@ -40,7 +42,7 @@ from airmat.errors import InputError
 from airmat.units import M_TO_MM
 from airmat.design.export.rhino_stable import stable_3dm_bytes
 
-__all__ = ["lift_to_surface", "lift_to_face", "band_colours", "rhino_model", "write_3dm", "STRING_KEYS",
+__all__ = ["lift_to_surface", "lift_to_face", "band_colours", "rhino_model", "write_3dm", "rhino3dm_available", "STRING_KEYS",
            "FACE_FAMILIES"]
 
 FACE_FAMILIES = ("top/k1", "top/k2", "bottom/k1", "bottom/k2")
@@ -323,19 +325,38 @@ def rhino_model(doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *
     return model
 
 
+def rhino3dm_available() -> bool:
+    """Whether rhino3dm is installed (it has no wheel for Python 3.10 on Apple silicon)."""
+    import importlib.util
+
+    return importlib.util.find_spec("rhino3dm") is not None
+
+
 def write_3dm(path, doc: dict, xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray, *,
-              shapes: dict | None = None, band: np.ndarray | None = None) -> None:
+              shapes: dict | None = None, band: np.ndarray | None = None) -> bool:
     """Write ``design.3dm`` (or ``inflated.3dm`` with ``shapes``) through :mod:`airmat.atomic`, byte-stable.
 
     Parameters are those of :func:`rhino_model`.
+
+    Returns
+    -------
+    bool
+        True when written; False, with a warning logged, where rhino3dm is not installed
+        (no wheel for Python 3.10 on Apple silicon: Python 3.11 or later writes it).
 
     Raises
     ------
     airmat.errors.InputError
         rhino3dm could not write the file.
     """
+    if not rhino3dm_available():
+        logging.getLogger(__name__).warning(
+            "%s not written: rhino3dm is not installed (it has no wheel for Python 3.10 on Apple silicon; "
+            "Python 3.11 or later writes it)", Path(path).name)
+        return False
     model = rhino_model(doc, xyz, uv, faces, shapes=shapes, band=band)
     data = stable_3dm_bytes(model, 8)
     if not data:
         raise InputError("rhino3dm could not write the .3dm file", path=path)
     atomic_write_bytes(path, data)
+    return True
