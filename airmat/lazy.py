@@ -2,7 +2,7 @@
 
 A package ``__init__`` names its public objects and the submodule that defines
 each; ``import calib`` then costs nothing beyond ``airmat``, and importing one
-submodule (``import airmat.design.mattress``) no longer runs every sibling's imports.
+submodule (``import airmat.design.mattress``) runs its own imports, not every sibling's.
 ``from calib import kappa1``, ``dir(calib)`` and ``from calib import *`` work
 as with eager re-exports.
 

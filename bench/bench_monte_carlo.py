@@ -2,7 +2,7 @@
 
 Usage::
 
-    .venv/bin/python bench/bench_monte_carlo.py                      # 32 samples at 20 mm (the case)
+    .venv/bin/python bench/bench_monte_carlo.py                      # 32 samples at 20 mm (docs/benchmarks.md)
     .venv/bin/python bench/bench_monte_carlo.py --samples 8 --resolution-mm 60   # a loaded machine
     .venv/bin/python bench/bench_monte_carlo.py --quick     # a smoke run: 2 samples at 60 mm
 

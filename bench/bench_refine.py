@@ -21,7 +21,7 @@ that equilibrium to its lengths), Gauss–Newton iterations, the refinement's
 wall time (everything: the open-loop inflation, the iterations and the
 verification), one inflation of the open-loop design at the same resolution
 and the verification of the refined one, measured in the same run (the
-ratio refine / one inflation is the issue's target, <= 5x), strings
+ratio refine / one inflation has the target <= 5x), strings
 dropped / flagged. ``--from-flat`` adds a last column: the refined lengths
 inflated from the flat mattress instead (another inflation, not counted in
 the refinement's time), to show how much the refined deviation depends on
@@ -36,11 +36,11 @@ surface": the refined face's RMS distance from the nearest points of the designe
 Ŝ's points along it (RMS).
 
 ``--jacobian-solve per-column all-at-once``: one row each with the Jacobian's right-hand
-sides solved by cvxopt one column at a time (as before ``airmat.inflation.cholmod_block``) and in
+sides solved by cvxopt one column at a time (without ``airmat.inflation.cholmod_block``) and in
 one CHOLMOD call (the default), in a last column.
 
 ``--damping-hold 0 1``: one row (or spread row) each with the Gauss–Newton damping shrunk
-after every well-predicted step (0, the rule before) and held after an iteration that had to
+after every well-predicted step (0) and held after an iteration that had to
 grow it (1, the default; ``airmat.check.gauss_newton.HOLD_AFTER_RETRY``), in a last column.
 
 ``--trial-rule shift:4 backtrack:2``: one row (or spread row) each with the Newton method of the

@@ -2,12 +2,12 @@
 
 Usage: ``python bench/run_all.py [--quick]`` (``make bench``). Each benchmark is
 a script printing a Markdown table; the tables are written to
-``bench/results/<name>.md`` and echoed. Run it on a quiet machine: the numbers
-in the README were produced this way. ``--quick`` passes ``--quick`` to every
+``bench/results/<name>.md`` and echoed. Run it on a quiet machine: the tables
+in ``docs/benchmarks.md`` are produced this way. ``--quick`` passes ``--quick`` to every
 benchmark: a smoke run on tiny inputs (one preset at a coarse resolution, one
 repeat) through the same code path, a few seconds each
-(``tests/test_bench_quick.py`` runs them so). The experiments whose answer is in
-the code were retired; their results: ``docs/decisions-bench.md``.
+(``tests/test_bench_quick.py`` runs them so). Experiments whose answer is in the
+code are not kept as benchmarks; their results: ``docs/decisions.md``.
 """
 
 from __future__ import annotations

@@ -22,8 +22,8 @@ equilibrium carried on to each run's strings
 (:func:`~airmat.inflation.simulate.inflate_from`; ``DesignCheck.open_loop``). The
 refinement's trial equilibria all lie on that path, each started from the last
 one; from the flat mattress the same lengths can settle in another
-arrangement of the wrinkles (vault1: 7.1 instead of 6.4 mm RMS, README,
-Refinement).
+arrangement of the wrinkles (vault1: 7.1 instead of 6.4 mm RMS; ``docs/benchmarks.md``,
+``bench/bench_refine.py --from-flat``).
 
 The three runs are independent, so ``workers > 1`` runs them in that many
 Dask worker processes, or ``scheduler`` on an existing cluster

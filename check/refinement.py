@@ -10,7 +10,7 @@ named face (slack ones, or ones whose effect other strings can replace) stay
 at their open-loop length instead of drifting, and the Gauss–Newton matrix
 stays regular. ``alpha = 1e-3`` (the default) costs a 32 mm change of every
 string as much as 1 mm of RMS deviation (refined strings change by tens of
-mm: −45 to +12 mm on the saddle). Measured at 20 mm (README,
+mm: −45 to +12 mm on the saddle). Measured at 20 mm (``docs/benchmarks.md``,
 ``bench/bench_refine.py --alpha``, with the re-parametrization round): the
 saddle 0.87 % of the diagonal (as at 3e-4 and 1e-4; 0.89 % at 3e-3 and 1e-2),
 vault1 0.62 % (0.60 % at 3e-4, 0.70–0.72 % at the others).
@@ -62,7 +62,7 @@ refined design carries that Ŝ (``approx_surface.ply``; its shape is the
 designed one: 0.05–0.12 mm RMS off it on the constructible presets), which the check of the
 refined design then compares with. ``deviation_before`` stays the open-loop
 deviation from the designed Ŝ (the refine block also gives the open loop
-against the re-parametrized one). Measured at 20 mm (README,
+against the re-parametrized one). Measured at 20 mm (``docs/benchmarks.md``,
 ``bench/bench_refine.py --reparametrize 0 1``).
 
 The refined lengths are checked by the check's own inflation of a refined

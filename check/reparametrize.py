@@ -6,7 +6,7 @@ the designer's model of the named face's metric (:mod:`airmat.design.face_metric
 Ω's lengths, shortened by 1 / (1 + d κ) under the face's own strings). The
 simulated face realizes a somewhat different metric (the saddle's top face
 shortens along u by 0.92–0.94 where the model says 0.89–0.95,
-bench_face_strain in docs/decisions-bench.md), so part of the deviation is a slide along
+bench_face_strain in docs/decisions.md), so part of the deviation is a slide along
 the surface, not a distance from it: the refined saddle lies 13.8 mm RMS
 from Ŝ point to point but 9.8 mm from Ŝ's nearest points.
 

@@ -34,7 +34,7 @@ log = logging.getLogger(__name__)
 
 #: Newton iterations a trial equilibrium of a Gauss–Newton step may take before the step counts as
 #: failed (the damping then rises and the step shrinks). A trial that needs more has crossed a change
-#: of the wrinkles, where the linear model does not hold. Measured at 20 mm (README, Refinement), 20
+#: of the wrinkles, where the linear model does not hold. Measured at 20 mm (docs/decisions.md, Refinement), 20
 #: against 50: vault1 0.78 -> 0.72 % of the diagonal and 5.9x -> 4.7x one inflation, the saddle,
 #: vault2 and the roof the same numbers, the dome 3.25 -> 3.62 % (2.9x instead of 4.2x). Against 12 and 15
 #: (``bench/bench_refine.py --draws 4 --trial-newton 12 15 20``): vault1 0.70 -> 0.91 % and the dome
@@ -46,7 +46,7 @@ SOLVE_NEWTON = 50
 
 #: what the Newton method of the refinement's equilibria does with a step that does not lower U_B, and by
 #: how much it raises its shift (:func:`airmat.inflation.solver.solve`: ``refused_step``, ``mu_up``); the
-#: check's inflations (and so the verification) always keep the solver's own rule. Measured (README,
+#: check's inflations (and so the verification) always keep the solver's own rule. Measured (docs/benchmarks.md,
 #: ``bench/bench_refine.py --draws 8 --trial-rule shift:4 backtrack:2``): halving with the shift x2
 #: took vault1 from 4.5-5.9x one inflation to 3.8-5.5x but from 0.70 % of the diagonal (median of 8
 #: draws) to 0.78 %, the saddle, vault2 and the roof the same deviations, the roof still at 4.9x. So the

@@ -250,7 +250,7 @@ def section_curvature(inf, layout: SpecimenLayout, face: str, n_lines: int = 5, 
     l*/L = 0.55 (40 mm mesh), where the strip's ends come near each other, and
     the calibrated length map's table cannot follow that (its check at
     l/L = 0.4 read −7.3 %, against −1.4 % over the middle 2L); so the middle 2L
-    stays the default (README, The specimen's polygon).
+    stays the default (docs/decisions.md, Check).
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ in one batched solve.
 On the rim of a patch a neighbourhood is one-sided; there the fit uses
 one more ring and a ball 1.5 times as large, which keeps the rim's
 curvature error close to the interior's. On relaxed Ŝ meshes (20 mm, from
-cylinder, cone and sphere targets) the largest rim error was 0.035-0.072 1/m
+cylinder, cone and sphere targets) the largest rim error is 0.035-0.072 1/m
 here against 0.11-0.22 1/m for libigl's ``principal_curvature`` with
 radius 2 (radius 3: 0.037-0.091, and worse in the interior); on noise-free
 meshes libigl does as well. See tests/design/test_curvature.py.

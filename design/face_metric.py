@@ -9,8 +9,8 @@ minority family's strings sit on the named face itself: along their
 direction that face is the string face and shortens, by the ratio of its
 radius to the free face's, 1 / (1 + d |κ|) (d the mattress thickness, κ the
 named face's normal curvature; measured on the saddle: 0.92–0.94 of flat
-along u where Ŝ kept 0.97–1.02; bench_face_strain in docs/decisions-bench.md). No string
-length can make a face longer than its metric, so such a Ŝ sat 2.6 % of the
+along u where Ŝ in Ω's metric keeps 0.97–1.02; bench_face_strain in docs/decisions.md). No
+string length can make a face longer than its metric, so such a Ŝ lies 2.6 % of the
 diagonal from what the mattress makes.
 
 :func:`face_metric` gives each edge of Ω the rest length of the named face:

@@ -17,7 +17,7 @@ stretch (c > 1) stays at its flat length: the span is min(c, 1) L.
 along the dash on Ŝ (the named face itself, or Ŝ offset by the thickness
 along its normal) over the dash's length on Ω. Measured on the saddle at
 20 mm, the centre's k2 dashes need c ≈ 0.97: the mattress compresses there
-rather than bend (bench_face_strain in docs/decisions-bench.md). SI units (m).
+rather than bend (bench_face_strain in docs/decisions.md). SI units (m).
 """
 
 from __future__ import annotations

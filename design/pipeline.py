@@ -54,7 +54,7 @@ class DesignParams:
         Spacing of neighbouring lines (m), paper §3.3.1.
 
     The defaults (μ₁ = L, μ₂ = 50 mm) come from a measured table of pattern
-    density against deviation (``bench/bench_density.py``, README): the paper's
+    density against deviation (``docs/benchmarks.md``, ``bench/bench_density.py``): the paper's
     sparser μ₁ = 400, μ₂ = 100 mm left bands of the mattress unstrung and landed
     2.1-2.9 % of the diagonal from Ŝ, the denser pattern 0.8-1.4 % on the
     constructible presets but the saddle.

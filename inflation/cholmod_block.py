@@ -11,7 +11,7 @@ libcholmod, the library that already holds the factor (no second
 factorization, no new dependency).
 
 Measured (``bench/bench_jacobian_solve.py``, the roof's Jacobian on the
-refinement's 40 mm mesh: 17 112 unknowns, 289 right-hand sides), see the README.
+refinement's 40 mm mesh: 17 112 unknowns, 289 right-hand sides): ``docs/benchmarks.md``.
 
 cvxopt's OpenBLAS is a sequential build, so one CHOLMOD call runs on one core.
 A large right-hand side (at least ``MIN_SPLIT`` entries) is split in two

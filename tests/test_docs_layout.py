@@ -1,4 +1,4 @@
-"""The documentation stays what it promises: the Layout names every module, the README is short, no page narrates history."""
+"""The documentation stays what it promises: the Layout names every module, the README is short, no page or source file narrates history."""
 
 import re
 import subprocess
@@ -11,6 +11,13 @@ PACKAGES = ("airmat", "calib", "design", "inflation", "check", "report", "data_s
 README_MAX_LINES = 300
 #: phrases of a measurement history; CHANGELOG.md is where history belongs
 HISTORY = re.compile(r"\bsession \d+|was measured in session", re.IGNORECASE)
+#: markers of work history in a comment or docstring: a session, an issue's number
+PY_HISTORY = re.compile(r"\bsession \d+|\(issue \d+\)|\bissue \d+'s\b", re.IGNORECASE)
+#: a pointer to the README for a measurement or an explanation; they live in docs/
+README_POINTER = re.compile(r"README,|in the README|see the README", re.IGNORECASE)
+#: product files whose README pointers are being rewritten by their owner: each entry must still
+#: hold one (remove it once the file points to docs/)
+README_POINTER_PENDING = frozenset({"check/gauss_newton.py"})
 
 
 def _layout() -> str:
@@ -26,6 +33,27 @@ def _tracked_markdown() -> list[Path]:
     except (OSError, subprocess.CalledProcessError):
         pytest.skip("not a git checkout")
     return [ROOT / name for name in out.decode("utf-8").split("\0") if name]
+
+
+def _tracked_python(*folders: str) -> list[Path]:
+    """The tracked .py files under ``folders`` (``git ls-files``)."""
+    try:
+        out = subprocess.run(["git", "ls-files", "-z", "--", *(f"{f}/*.py" for f in folders)], cwd=ROOT,
+                             capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        pytest.skip("not a git checkout")
+    return [ROOT / name for name in out.decode("utf-8").split("\0") if name]
+
+
+def _lines_matching(paths: list[Path], pattern: re.Pattern) -> list[str]:
+    found = []
+    for path in paths:
+        if not path.is_file():
+            continue
+        for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if pattern.search(line):
+                found.append(f"{path.relative_to(ROOT).as_posix()}:{i}: {line.strip()[:100]}")
+    return found
 
 
 def test_every_module_is_in_the_layout():
@@ -57,3 +85,23 @@ def test_no_history_outside_the_changelog():
             if HISTORY.search(line):
                 found.append(f"{path.relative_to(ROOT)}:{i}: {line.strip()[:80]}")
     assert not found, "history belongs in CHANGELOG.md:\n" + "\n".join(found)
+
+
+def test_no_python_file_narrates_history():
+    files = _tracked_python(*PACKAGES, "tests", "bench")
+    assert files
+    found = _lines_matching(files, PY_HISTORY)
+    assert not found, ("comments and docstrings say what the code does and why; history belongs in "
+                       "CHANGELOG.md:\n" + "\n".join(found))
+
+
+def test_no_product_file_points_to_the_readme():
+    files = _tracked_python(*PACKAGES)
+    assert files
+    found = _lines_matching(files, README_POINTER)
+    pending = {name for name in README_POINTER_PENDING if any(hit.startswith(name + ":") for hit in found)}
+    assert pending == README_POINTER_PENDING, (
+        f"no README pointer left in {sorted(README_POINTER_PENDING - pending)}: remove it from README_POINTER_PENDING")
+    found = [hit for hit in found if hit.split(":", 1)[0] not in README_POINTER_PENDING]
+    assert not found, ("measurements live in docs/benchmarks.md (under their command), experiments in "
+                       "docs/decisions.md, explanations in docs/guide/ and docs/method.md:\n" + "\n".join(found))

@@ -22,12 +22,12 @@ def add_parser(sub, parents):
                         "resolution reproduces the promised deviation")
     p.add_argument("--max-iter", type=int, default=20, help="Gauss-Newton iterations (default 20)")
     p.add_argument("--single-level", action="store_true",
-                   help="run every Gauss-Newton iteration at --resolution-mm (slower, closer; measured in the "
-                        "README, Refinement); default: on twice that mesh")
+                   help="run every Gauss-Newton iteration at --resolution-mm (slower, closer; measured in "
+                        "docs/decisions.md, Refinement); default: on twice that mesh")
     p.add_argument("--defect-corrections", type=int, default=0, metavar="N",
                    help="where the iterations on the coarse mesh stop early, solve the fine mesh at their lengths, "
                         "re-correct the coarse one by it and go on, up to N times (default 0; what it gains and "
-                        "costs is measured in the README, Refinement)")
+                        "costs: docs/benchmarks.md, 'bench/bench_refine.py --corrections 0 1')")
     p.add_argument("--regularization", type=float, default=None, metavar="ALPHA",
                    help="weight of the pull toward the open-loop lengths, alpha * mean((l* - l*_open)^2) beside "
                         "the mean squared deviation (default 1e-3: a 32 mm change of every string costs as much "

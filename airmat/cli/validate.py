@@ -57,7 +57,7 @@ def _write(points, folder, resolution_mm, *, layout, delta=0.0, d=None, lengths=
              "fold_angle_deg": round(float(np.degrees(p.fold_angle)), 2),
              "model_angle_deg": round(float(np.degrees(p.model_angle)), 2), "turn_deg": round(p.turn_deg, 1),
              "closes": p.closes,
-             # the names of earlier versions (kappa_sim: the cross-section circles of the string face)
+             # the established key names (kappa_sim: the cross-section circles of the string face)
              "kappa_sim_per_m": round(p.kappa_sim, 4), "kappa_sim_se_per_m": round(p.kappa_sim_se, 4),
              "kappa_strings_per_m": round(p.kappa_strings, 4),
              "converged": p.converged, "iterations": p.n_iter} for p in points]

@@ -8,8 +8,8 @@ Metashape ``.pts``; open3d reads it as a point), ``#`` comments.
 ``polars.read_csv`` parses on every core with an explicit float64 schema,
 converting only the columns needed (the rest of each row is skipped), with
 the same bits as ``numpy.loadtxt`` (numpy's C parser, one thread; both round
-decimals correctly); the CPU time of a 1M-point read is in the README under
-``bench/bench_cylinder.py --formats``. ``#`` comment lines below the
+decimals correctly); the CPU time of a 1M-point read is in ``docs/benchmarks.md``
+under ``bench/bench_cylinder.py --formats``. ``#`` comment lines below the
 first row get a second polars pass (looking for them costs it half again).
 What polars does not read cleanly (runs of blanks, a short row, a word,
 ``nan`` in a scan, a ``//`` comment below the header, old-Mac line ends) goes

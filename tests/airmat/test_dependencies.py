@@ -23,7 +23,7 @@ FOLDERS = {"airmat": "airmat", "calib": "airmat.calib", "design": "airmat.design
 #: the product: every package but the synthetic data's
 PRODUCT = tuple(f for f, pkg in FOLDERS.items() if pkg != "airmat.synthetic")
 
-#: first parts of module names that no longer exist: the folders imported as top-level packages
+#: first parts of module names that do not exist: the folders imported as top-level packages
 OLD_TOP_LEVEL = ("calib", "design", "inflation", "check", "report", "data_synthetic")
 
 
@@ -238,7 +238,7 @@ def test_the_cycle_check_finds_a_cycle_through_a_package_init(tmp_path):
 
 
 def test_nothing_imports_the_old_top_level_names():
-    """``calib``, ``design``, ... install as ``airmat.calib``, ...: an ``import calib`` only worked from the
+    """``calib``, ``design``, ... install as ``airmat.calib``, ...: an ``import calib`` works only from the
     repository's root, never for an installed user."""
     files = [*_files(*FOLDERS), *sorted((ROOT / "tests").rglob("*.py")), *sorted((ROOT / "bench").rglob("*.py"))]
     bad = [f"{p.relative_to(ROOT).as_posix()}:{line}: {m}" for p in files for line, m, _ in _imports(p)

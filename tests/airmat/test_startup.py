@@ -72,7 +72,7 @@ print(json.dumps({{"code": code, "kappa": json.loads(out.getvalue())["kappa_per_
     assert got["code"] == 0
     assert got["kappa"] == pytest.approx(4.0, rel=0.05)
     # nor scipy, scikit-image, open3d or trimesh: their imports alone would cost more than a
-    # fit of a million points (README, "Cylinder fit vs peers")
+    # fit of a million points (docs/benchmarks.md, `bench/bench_cylinder.py`)
     for name in ("matplotlib", "emcee", "scipy", "skimage", "open3d", "trimesh", "pandas", "polars",
                  *NOT_FOR_CALIBRATION):
         assert name not in got["loaded"], name

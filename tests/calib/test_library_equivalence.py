@@ -3,7 +3,7 @@
 ``airmat.calib.circle_ransac`` and ``airmat.calib.cylinder_lsq.refine`` replace
 ``skimage.measure.ransac(CircleModel)`` and ``scipy.optimize.least_squares``
 on the fit's path only because importing those libraries costs more than the
-whole fit (the scan issue's start-up goal); these tests hold them to the
+whole fit (docs/benchmarks.md, ``bench/bench_cylinder.py --process``); these tests hold them to the
 libraries' answers on the same problems.
 """
 

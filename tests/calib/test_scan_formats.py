@@ -1,4 +1,4 @@
-"""Issue 12: scanner formats written by the real libraries, coordinates, precision, and fits right or refused."""
+"""Scanner formats written by the real libraries, coordinates, precision, and fits right or refused."""
 
 import dataclasses
 import logging

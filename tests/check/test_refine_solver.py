@@ -256,9 +256,10 @@ class _Overshoot:
 
 
 def test_a_step_that_realizes_under_a_quarter_of_its_predicted_decrease_is_not_taken():
-    # the saddle's first iteration used to accept a 50 mm change of its lengths that realized 1 % of the
-    # predicted decrease (rho 0.01), and the refinement then landed anywhere between 0.89 and 1.26 % of the
-    # diagonal over lengths jittered by 5 µm; a step is now taken only when rho > ACCEPT (0.25)
+    # a step is taken only when rho > ACCEPT (0.25): accepting any decrease lets the saddle's first iteration
+    # take a 50 mm change of its lengths that realizes 1 % of the predicted decrease (rho 0.01), and the
+    # refinement then lands anywhere between 0.89 and 1.26 % of the diagonal over lengths jittered by 5 µm
+    # (docs/decisions.md, Refinement)
     from airmat.check.gauss_newton import ACCEPT, gauss_newton
     prob = _Overshoot()
     kw = dict(alpha=1e-12, ftol=1e-12, xtol=1e-12, rms_tol=0.0)
@@ -292,7 +293,7 @@ class _OutOfReach(_Overshoot):
 def test_the_damping_shrinks_only_after_an_iteration_whose_first_step_was_taken():
     # after an iteration that had to grow the damping (a trial without an equilibrium, or refused), the next
     # one starts from the damping that worked, not a third of it: on the dome the shrunk damping's first
-    # trials failed again and again (README, Refinement: "Which steps are taken")
+    # trials fail again and again (docs/decisions.md, Refinement; the rule: docs/method.md, The refinement)
     from airmat.check.gauss_newton import LAM_DOWN, gauss_newton
     kw = dict(alpha=1e-12, ftol=1e-12, xtol=1e-12, rms_tol=0.0)
     lo, hi, x0 = np.array([-10.0]), np.array([10.0]), np.zeros((1, 3))

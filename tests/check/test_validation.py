@@ -32,7 +32,7 @@ def test_the_polygon_needs_three_folds_per_row():
 @pytest.mark.slow
 def test_simulated_kappa1_against_equation3():
     # The specimen (three chained strings per row, rows aligned) at 40 mm against Equation 3, Δ = 0,
-    # for l/L in [0.4, 0.9]. Measured (README, `airmat validate`), for l/L = 0.4 ... 0.9:
+    # for l/L in [0.4, 0.9]. Measured (`airmat validate`, 40 mm), for l/L = 0.4 ... 0.9:
     # - the paper's κ₁ (circle through consecutive folds on the string face): -14.4, -7.3, -6.5, +3.5,
     #   -0.2, -6.3 % against 2 cos(θ/2)/L*: within 10 % from l/L = 0.5. At 0.4 the strip turns 389° (it
     #   would have touched itself at 330°), but that is not why it reads low: its folds are 202.8 mm

@@ -1,6 +1,6 @@
 """Bad input, one table per subcommand: exit 2, exactly one stderr line naming the file or option, no --out.
 
-Every case is a mistake a new user makes (issue 16's campaign): a negative
+Every case is a mistake a new user makes: a negative
 seed, a wrong-typed truth file, a target without a surface, a damaged
 calibration or design folder, an absurd physical value, a mesh too fine to
 solve. Each is refused before any heavy work, so the table runs in seconds;

@@ -99,7 +99,7 @@ def bad_cases(tmp, synth_set):
     os.symlink(loop / "b.ply", loop / "a.ply")
     (loop / "m.csv").write_text("scan,l_mm,L_mm\na.ply,90,300\nb.ply,150,300\nc.ply,200,300\n")
     return [
-        ([str(loop / "m.csv")], "line 2: scan 'a.ply' cannot be resolved", loop / "m.csv"),  # issue 16
+        ([str(loop / "m.csv")], "line 2: scan 'a.ply' cannot be resolved", loop / "m.csv"),  # a symlink loop
         ([str(tmp / "missing.csv")], "manifest not found", tmp / "missing.csv"),
         ([str(bad_manifest)], "missing column(s) L_mm", bad_manifest),
         ([str(not_cyl / "m.csv")], "", not_cyl / "a.ply"),

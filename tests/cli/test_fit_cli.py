@@ -108,7 +108,7 @@ def test_a_fit_that_did_not_converge_is_an_error_naming_the_scan(scan_mm, capsys
     monkeypatch.setattr(cf, "full_resolution_fit", stopped)
     path, _ = scan_mm
     code, out, err = _run(["fit", str(path)], capsys)
-    assert code == 2 and out == ""                      # issue 12: never a number from a failed fit
+    assert code == 2 and out == ""                      # never a number from a failed fit
     lines = err.strip().splitlines()
     assert len(lines) == 1 and str(path) in lines[0]
     assert "did not converge" in lines[0] and "max_nfev reached" in lines[0]

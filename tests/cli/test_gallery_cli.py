@@ -14,8 +14,7 @@ def test_gallery_row_matches_the_design_and_inflation_files(tmp_path):
         assert main(["gallery", "--presets", "saddle", "--resolution-mm", "60", "--out", str(tmp_path), "-q"]) == 0
     table = (tmp_path / "gallery.md").read_text().splitlines()
     assert len(table) == 3 and table[2].startswith("| small | saddle |")
-    # stdout is the same table, header first (the README once got the rows above their header from it),
-    # then where the files went
+    # stdout is the same table, header first, then where the files went
     printed = stdout.getvalue().splitlines()
     assert printed[:3] == table and printed[3] == "" and printed[4].startswith("wrote ") and len(printed) == 5
     assert printed[4].endswith(f"each preset's design and inflate folders under {tmp_path} (saddle)")

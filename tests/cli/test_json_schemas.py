@@ -1,4 +1,4 @@
-"""Every JSON output against its schema in ``airmat/schemas/`` (package data) (issue 13), on the outputs of small real runs.
+"""Every JSON output against its schema in ``airmat/schemas/`` (package data), on the outputs of small real runs.
 
 Also: every schema is a valid JSON Schema (2020-12), every file carries
 ``schema_version``/``airmat_version`` and holds no bare NaN, and the schemas do

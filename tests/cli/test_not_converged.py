@@ -1,4 +1,4 @@
-"""Not converged is not success (issue 16): exit code 3, results written, exactly one stderr line.
+"""Not converged is not success: exit code 3, results written, exactly one stderr line.
 
 The library's own warnings (MCMC, relaxation, inflation) are still logged, at
 their loggers, and reach stderr only at ``-v``. Each command that can return 3

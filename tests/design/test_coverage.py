@@ -1,4 +1,4 @@
-"""Coverage of the pattern: unstrung bands found, classified and explained (issue: a pattern that covers the mattress)."""
+"""Coverage of the pattern: unstrung bands found, classified and explained."""
 
 from types import SimpleNamespace
 

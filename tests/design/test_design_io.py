@@ -132,7 +132,8 @@ def test_sigma_samples_round_trip_exactly(vault, tmp_path):
 
 
 def test_a_mattress_read_back_or_typed_in_mm_is_the_presets_number(vault):
-    # 830 * 1e-3 is 0.8300000000000001; the refinement's path is sensitive to that last bit (README)
+    # 830 * 1e-3 is 0.8300000000000001; the refinement's path is sensitive to that last bit
+    # (docs/decisions.md, Refinement)
     from airmat.cli.design import parse_size_mm
     from airmat.units import mm_to_m
     result, folder = vault

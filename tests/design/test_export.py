@@ -178,7 +178,7 @@ def test_dxf_is_byte_stable_across_hash_seeds(tmp_path):
               "from airmat.design.export.dxf import write_dxf\n"
               "write_dxf(sys.argv[1], _document()[0])\n")
     data = []
-    for seed in ("1", "10"):     # seeds 1 and 10 ordered ezdxf's CLASSES differently before the fix
+    for seed in ("1", "10"):     # seeds 1 and 10 give ezdxf's CLASSES different orders unless write_dxf sorts them
         out = tmp_path / f"h{seed}.dxf"
         env = {**os.environ, "PYTHONHASHSEED": seed}
         subprocess.run([sys.executable, "-c", script, str(out), str(root), str(root / "tests" / "design")],

@@ -165,7 +165,7 @@ def test_placement_turns_to_the_orientation_the_target_covers():
     assert res.converged and res.n_iter < 100 and not res.off_target.any()
     _, sigma = edge_sigma(res.xyz, uv, faces)
     assert np.abs(sigma - 1).max() < 2e-3
-    # the default placement, now relaxed rim-aware, overhangs the axis ends but is not strained
+    # the default placement, relaxed rim-aware, overhangs the axis ends but is not strained
     turned_back = relax_to_target(uv, faces, Target.from_mesh(surf), placement=default, progress=False)
     assert turned_back.off_target.max() > 0.02
     assert np.abs(edge_sigma(turned_back.xyz, uv, faces)[1] - 1).max() < 5e-3

@@ -61,7 +61,7 @@ def test_symmetric_pattern_gives_symmetric_shape(mesh):
     assert sym.converged and top.converged and asym.converged
     # an exact mirror image: the rigid pins sit on the side wall at z = 0 and on the mirror
     # lines, so the solver's path is symmetric too and only round-off is left (measured
-    # 1.5e-11 m). Pins on the top face (as before) leave 3e-9 to 1e-8 m: within the solver's
+    # 1.5e-11 m). Pins on the top face instead leave 3e-9 to 1e-8 m: within the solver's
     # tolerance, but not a mirror image. 1e-9 W is 0.6 nm.
     for axis in (0, 1):
         assert _mirror_defect(sym, mesh, axis) < 1e-9 * W
