@@ -39,12 +39,12 @@ LAM_DOWN = 3.0
 #: shorter step is tried. With 1e-3 (any decrease) the saddle's first iteration took a 50 mm change
 #: of its lengths that realized 1 % of the predicted decrease, and the refinement landed anywhere
 #: from 0.89 to 1.26 % of the diagonal over lengths jittered by 5 µm; with 1/4, 0.87–0.88 %
-#: (README, ``bench/bench_refine.py --draws``).
+#: (docs/decisions.md, Refinement; ``bench/bench_refine.py --draws``).
 ACCEPT = 0.25
 
 #: after an iteration that had to grow the damping (a trial refused or without an equilibrium), the
-#: damping is not shrunk on its accepted step; False: shrunk whenever rho > 0.75 (the rule before).
-#: Measured side by side (README, ``bench/bench_refine.py --damping-hold 0 1``): the dome 2.84 ->
+#: damping is not shrunk on its accepted step; False: shrunk whenever rho > 0.75.
+#: Measured side by side (docs/decisions.md, Refinement; ``bench/bench_refine.py --damping-hold 0 1``): the dome 2.84 ->
 #: 2.35 % of the diagonal, vault1 and the saddle within their draws' spread.
 HOLD_AFTER_RETRY = True
 

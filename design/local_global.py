@@ -167,7 +167,5 @@ def iterate(prob: UAProblem, x, *, tol, stall, max_iter, window, bar):
         energies.append(e)
         g, force = prob.global_step(x, cp)
         if bar is not None:
-            bar.update(1)
-            if it % 10 == 0:
-                bar.set_postfix_str(f"force {residual:.1e} k_A1·h")
+            bar.residual(residual)
     return x, it, status, residual, history

@@ -41,8 +41,7 @@ import numpy as np
 
 from airmat.errors import ConvergenceError
 from airmat.geometry.topology import mesh_edges
-from airmat.progress import progress as progress_bar
-from airmat.progress import progress_enabled
+from airmat.progress import residual_progress
 from airmat.design.closest_point import MeshProjector
 from airmat.design.local_global import REFERENCE_SPACING, STALL_WINDOW, UAProblem, iterate, umbrella_operator
 from airmat.design.placement import apply_placement, candidate_placements, placement_matrix
@@ -184,13 +183,9 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
     if levels:
         x0 = _coarse_start(uv - lo, mat, projector, spacing=spacing, levels=levels, k=(k_a1, k_a2, k_a3),
                            stall=stall, max_iter=max_iter, anderson=anderson, settled=settled)
-    bar = progress_bar(total=max_iter, desc="relax Ŝ", unit="it") if progress and progress_enabled() else None
-    try:
+    with residual_progress(tol, desc="relax Ŝ") as bar:
         x, it, status, residual, history = iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
-                                                   window=anderson, bar=bar)
-    finally:
-        if bar is not None:
-            bar.close()
+                                                   window=anderson, bar=bar if progress else None)
     converged = status != "max_iter"
     closest = projector.closest(x)
     energy = prob.energy(x, prob.project(x))

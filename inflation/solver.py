@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from airmat.errors import ConvergenceError
-from airmat.progress import progress
+from airmat.progress import residual_progress
 from airmat.inflation.assembly import build_assembler
 from airmat.inflation.cholesky import ShiftedCholesky
 from airmat.inflation.energy import Model, block_pattern, energy_gradient_volume, hessian_blocks, smoothing_blocks
@@ -53,7 +53,7 @@ MU_UP = 4.0
 
 #: what a refused step does: ``"shift"`` (the rule in use) raises the shift by ``MU_UP`` and factorizes
 #: again; ``"backtrack"`` halves the same step (no new factorization) and leaves the raised shift to the
-#: next iteration. An experiment, not the default: bench_newton_rule (retired; docs/decisions-bench.md)
+#: next iteration. An experiment, not the default: bench_newton_rule (retired; docs/decisions.md)
 #: ran both side by side: with ``MU_UP = 2`` every preset's inflation lands on the same equilibrium 15-36 %
 #: sooner, but the refinement's Gauss-Newton path then changes, and so would every number measured.
 REFUSED_STEP = "shift"
@@ -286,13 +286,13 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
         system.mu_min = tr.mu_min
     e, g, gv = energy_gradient_volume(model, x)
     h_at_x = True   # h is the Hessian at x (the first iteration uses the one assembled above)
-    with progress(total=max_iter, desc=desc, unit="it") as bar:
+    with residual_progress(tol, desc=desc) as bar:
         while True:
             _check_sane(model, x, e, it)
             gf = g.reshape(-1)[asm.free]
             res = _residual(model, gv, gf)
             history.append(res)
-            bar.set_postfix_str(f"residual {res:.2e}")
+            bar.residual(res)
             if res < tol:
                 converged, message = True, f"converged: residual {res:.3g} < {tol:g}"
                 break
@@ -309,7 +309,6 @@ def solve(model: Model, x0: np.ndarray, *, fixed_dofs=(), tol: float = 1e-6, max
             h_at_x = False
             log.debug("iteration %d: U=%.12g J, residual %.3e, shift %.1e", it, e, res, tr.mu)
             it += 1
-            bar.update(1)
     log.debug("%s: %d iterations, %d Cholesky factorizations", desc, it, system.n_factorizations)
     if not converged:
         (log.warning if warn else log.debug)("inflation solver: %s", message)

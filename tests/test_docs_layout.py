@@ -15,9 +15,6 @@ HISTORY = re.compile(r"\bsession \d+|was measured in session", re.IGNORECASE)
 PY_HISTORY = re.compile(r"\bsession \d+|\(issue \d+\)|\bissue \d+'s\b", re.IGNORECASE)
 #: a pointer to the README for a measurement or an explanation; they live in docs/
 README_POINTER = re.compile(r"README,|in the README|see the README", re.IGNORECASE)
-#: product files whose README pointers are being rewritten by their owner: each entry must still
-#: hold one (remove it once the file points to docs/)
-README_POINTER_PENDING = frozenset({"check/gauss_newton.py"})
 
 
 def _layout() -> str:
@@ -99,9 +96,5 @@ def test_no_product_file_points_to_the_readme():
     files = _tracked_python(*PACKAGES)
     assert files
     found = _lines_matching(files, README_POINTER)
-    pending = {name for name in README_POINTER_PENDING if any(hit.startswith(name + ":") for hit in found)}
-    assert pending == README_POINTER_PENDING, (
-        f"no README pointer left in {sorted(README_POINTER_PENDING - pending)}: remove it from README_POINTER_PENDING")
-    found = [hit for hit in found if hit.split(":", 1)[0] not in README_POINTER_PENDING]
     assert not found, ("measurements live in docs/benchmarks.md (under their command), experiments in "
                        "docs/decisions.md, explanations in docs/guide/ and docs/method.md:\n" + "\n".join(found))
