@@ -446,3 +446,14 @@ def test_e57_invalid_points_become_nan_and_are_dropped(tmp_path, spec):
     scan = read_scan(path)
     assert scan.n_nonfinite_dropped == np.count_nonzero(invalid)
     assert np.array_equal(scan.points + scan.offset, pts[invalid == 0].astype(np.float32))  # pye57 writes floats
+
+
+def test_an_e57_without_pye57_is_refused_saying_what_to_do(tmp_path, monkeypatch):
+    # pye57 has no wheel for Intel macOS: there an E57 scan is refused with the way out, not a traceback
+    import sys
+
+    write_scan(tmp_path / "s.e57", specimen_scan(4.0, n_points=2000, seed=0).points * 1e3, "e57")
+    monkeypatch.setitem(sys.modules, "pye57", None)           # import pye57 -> ImportError
+    with pytest.raises(InputError, match="reading E57 needs pye57.*save the scan as PLY or LAS") as err:
+        read_scan(tmp_path / "s.e57")
+    assert err.value.one_line().startswith(str(tmp_path / "s.e57") + ": reading E57")

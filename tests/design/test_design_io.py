@@ -141,3 +141,17 @@ def test_a_mattress_read_back_or_typed_in_mm_is_the_presets_number(vault):
     assert result.mattress.width == 0.83 and back.mattress == result.mattress
     assert parse_size_mm("830x740") == (0.83, 0.74) and parse_size_mm("2600x1600") == (2.6, 1.6)
     assert mm_to_m(70) == 0.07 and 830 * 1e-3 != 0.83
+
+
+def test_without_rhino3dm_the_folder_is_written_without_its_3dm_and_says_so(vault, tmp_path, monkeypatch, caplog):
+    # rhino3dm has no wheel for Python 3.10 on Apple silicon: there the design is written without design.3dm
+    import airmat.design.export.rhino as rhino
+
+    monkeypatch.setattr(rhino, "rhino3dm_available", lambda: False)
+    result, _ = vault
+    with caplog.at_level("WARNING", logger="airmat.design.export.rhino"):
+        write_design(result, tmp_path / "d")
+    assert sorted(p.name for p in (tmp_path / "d").iterdir()) == sorted(set(OUTPUT_FILES) - {"design.3dm"})
+    assert any("design.3dm not written: rhino3dm is not installed" in r.getMessage() for r in caplog.records)
+    back, full = read_design(tmp_path / "d").pattern.strings, read_design(_).pattern.strings
+    assert [(s.dash.id, s.l_median) for s in back] == [(s.dash.id, s.l_median) for s in full]
