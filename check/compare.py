@@ -17,6 +17,12 @@ the Ω coordinates of Ŝ's vertices by barycentric interpolation on the
 mattress grid, rigidly aligned to Ŝ (Kabsch,
 :meth:`scipy.spatial.transform.Rotation.align_vectors`), and the distances
 of corresponding points are the deviation. SI units.
+
+:func:`distance_to_target` measures the same aligned face against the user's target S
+(Ŝ's guide): each point's distance to the closest point of S's mesh
+(:class:`airmat.design.closest_point.MeshProjector`), as a percentage of Ŝ's diagonal
+like the deviation, so the two read side by side. Distance to a set is 1-Lipschitz,
+so per point |d_S(face) − d_S(Ŝ)| ≤ the deviation from Ŝ (the triangle inequality).
 """
 
 from __future__ import annotations
@@ -31,8 +37,8 @@ from airmat.geometry.polyline import midpoints, points_at_fractions
 from airmat.inflation.mesh import locate
 from airmat.summary import Summarized, mm
 
-__all__ = ["SURFACES", "Deviation", "surface_at", "deviation", "realized_curvature",
-           "menger_signed"]
+__all__ = ["SURFACES", "Deviation", "TargetDistance", "surface_at", "deviation", "distance_to_target",
+           "realized_curvature", "menger_signed"]
 
 #: the surfaces of an inflated mattress a comparison can name
 SURFACES = ("top", "bottom", "mid")
@@ -77,6 +83,70 @@ class Deviation(Summarized):
     def apply(self, xyz) -> np.ndarray:
         """Points of the simulation frame, shape (k, 3) (m), moved into Ŝ's frame."""
         return np.asarray(xyz, float) @ self.rotation.T + self.translation
+
+
+@dataclass(frozen=True, repr=False)
+class TargetDistance(Summarized):
+    """Distance of points (an aligned inflated face, or Ŝ) from the target S's mesh.
+
+    Attributes
+    ----------
+    rms, max : float
+        RMS and largest distance to the closest points of S (m).
+    rms_pct_diag : float
+        ``rms`` as a percentage of the diagonal given (Ŝ's bounding box, as for :class:`Deviation`).
+    per_vertex : ndarray of shape (n,)
+        Each point's distance to S (m).
+    """
+
+    rms: float
+    max: float
+    rms_pct_diag: float
+    per_vertex: np.ndarray
+
+    def _summary(self):
+        return "TargetDistance", [("RMS", mm(self.rms)), ("max", mm(self.max)),
+                                  ("% of the diagonal", f"{self.rms_pct_diag:.2f}")]
+
+
+def distance_to_target(points, target, *, diagonal: float, projector=None) -> TargetDistance:
+    """Distance of ``points`` from the target surface S (closest points on its mesh, its rim included).
+
+    Parameters
+    ----------
+    points : ndarray of shape (n, 3)
+        E.g. ``Deviation.aligned`` (the inflated face in Ŝ's frame, which is S's frame) or Ŝ's vertices (m).
+    target : airmat.design.target.Target or mesh
+        S: ``vertices`` (m) and ``faces``.
+    diagonal : float
+        Length (m) the percentage is of (Ŝ's bounding-box diagonal).
+    projector : airmat.design.closest_point.MeshProjector, optional
+        A projector already built on S (several point sets against one target).
+
+    Returns
+    -------
+    TargetDistance
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> square = SimpleNamespace(vertices=np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
+    ...                          faces=np.array([[0, 1, 2], [0, 2, 3]]))
+    >>> d = distance_to_target(np.array([[0.5, 0.5, 0.1], [0.5, 0.5, -0.3]]), square, diagonal=1.0)
+    >>> round(d.max, 6), round(d.rms_pct_diag, 3)
+    (0.3, 22.361)
+    """
+    from airmat.design.closest_point import MeshProjector
+
+    pts = np.asarray(points, float)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points have shape {pts.shape}, expected (n, 3)")
+    if projector is None:
+        projector = MeshProjector(np.asarray(target.vertices, float), np.asarray(target.faces))
+    dist = projector.closest(pts).distance
+    rms = float(np.sqrt(np.mean(dist ** 2)))
+    return TargetDistance(rms=rms, max=float(dist.max()), rms_pct_diag=100.0 * rms / float(diagonal),
+                          per_vertex=dist)
 
 
 def _check_surface(which: str) -> str:

@@ -42,7 +42,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.check.compare import SURFACES, Deviation, deviation, realized_curvature
+from airmat.check.compare import (SURFACES, Deviation, TargetDistance, deviation, distance_to_target,
+                                  realized_curvature)
 from airmat.design.face_metric import strings_named_face
 from airmat.check.length_map import length_map
 from airmat.check.monte_carlo import draw, summarize
@@ -171,6 +172,10 @@ class CheckRun(Summarized):
     kappa_realized_free : ndarray of shape (k,)
         Along each dash on the face opposite its own string (the face that keeps its length
         in the paper's Figure 4a; the named face for the majority side's strings) (1/m).
+    to_target : airmat.check.compare.TargetDistance or None
+        The aligned named face's distance to the user's target S (closest points,
+        :func:`airmat.check.compare.distance_to_target`); None when the design does not
+        keep S (read from a folder: ``design.approx.target`` is None).
     """
 
     which: str
@@ -179,6 +184,7 @@ class CheckRun(Summarized):
     kappa_realized: np.ndarray
     deviations: dict = None
     kappa_realized_free: np.ndarray = None
+    to_target: TargetDistance | None = None
 
 
     def _summary(self):
@@ -347,6 +353,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     polylines = [s.dash.polyline for s in design.pattern.strings]
     named = named_face(design, string_sets[0]) if surface == "auto" else surface
     free = np.where(string_sets[0].top, "bottom", "top")
+    to_target = _target_distance(design)
     runs = {}
     for which, inf in zip(which_runs, inflations):
         if not inf.converged:
@@ -358,7 +365,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         log.info("%s lengths: %d Newton iterations in %.1f s; deviation of the %s face RMS %.1f mm, max %.1f mm "
                  "(mid-surface RMS %.1f mm)", which, inf.n_iter, inf.seconds, named, dev.rms * 1e3,
                  dev.max * 1e3, devs["mid"].rms * 1e3)
-        runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free)
+        runs[which] = CheckRun(which, inf, dev, kap, devs, kap_free, to_target(dev.aligned))
     mc = None
     if draws is not None:
         devs = [deviation(inf, design.approx.xyz, design.approx.uv, named) for inf in mc_runs]
@@ -371,6 +378,18 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
                  st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
     return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths,
                        monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh, levels=()))
+
+
+def _target_distance(design):
+    """points -> their TargetDistance to the design's target S (one projector), or to None without S."""
+    target = design.approx.target
+    if target is None:
+        return lambda points: None
+    from airmat.design.closest_point import MeshProjector
+
+    projector = MeshProjector(target.vertices, target.faces)
+    diag = float(np.linalg.norm(np.ptp(design.approx.xyz, axis=0)))
+    return lambda points: distance_to_target(points, target, diagonal=diag, projector=projector)
 
 
 def monte_carlo(design, samples: int = 64, *, seed: int = 0, tolerance: float | None = None,

@@ -12,7 +12,9 @@ with a Monte-Carlo, Ŝ coloured by the 95 % quantile on the hidden layer ``monte
 
 ``inflate.json``'s ``deviation {rms_mm, max_mm, rms_pct_diag}`` is measured on the named
 face (``deviation.surface``, see :mod:`airmat.check.compare`), with every face under
-``deviation.surfaces`` for reference. ``inflated.ply`` is the whole inflated mattress moved
+``deviation.surfaces`` for reference; ``to_target`` is the same aligned face's distance to the
+user's target S (``deviation.to_target`` per run), or a note when the design was read from a
+folder that does not keep S. ``inflated.ply`` is the whole inflated mattress moved
 into Ŝ's frame by the named face's alignment, so it overlays ``approx_surface.ply``.
 
 :func:`deviation_figure` returns the figure of deviation.png as a
@@ -89,11 +91,17 @@ def _dev_dict(dev) -> dict:
 def _run_dict(run) -> dict:
     inf, dev = run.inflation, run.deviation
     others = run.deviations or {}
+    to_target = {} if run.to_target is None else {"to_target": _dev_dict(run.to_target)}
     return {"deviation": {**_dev_dict(dev), "surface": dev.surface,
-                          "surfaces": {k: _dev_dict(v) for k, v in others.items()}},
+                          "surfaces": {k: _dev_dict(v) for k, v in others.items()}, **to_target},
             "solver": {"converged": bool(inf.converged), "iterations": int(inf.n_iter),
                        "residual": float(inf.residual),
                        "stages": int(inf.stages), "message": inf.message}}
+
+
+#: inflate.json's ``to_target`` when the design does not keep its target S (read from a design folder)
+TO_TARGET_NOTE = {"note": "the design was read from its folder, which does not keep the target S: only the "
+                          "deviation from S-hat (approx_surface) is measured"}
 
 
 def check_dict(check) -> dict:
@@ -113,6 +121,11 @@ def check_dict(check) -> dict:
                    "kappa_realized_free on the face opposite each dash's string; inflated.ply in "
                    "approx_surface's frame",
            **_run_dict(med)}
+    doc["to_target"] = TO_TARGET_NOTE if med.to_target is None else {
+        **_dev_dict(med.to_target), "surface": check.surface,
+        "note": "distance of the same aligned face to the closest points of the user's target S (its rim "
+                "included), % of approx_surface's diagonal; deviation is to S-hat, the near-developable surface "
+                "the mattress can make"}
     doc["envelope"] = {k: _run_dict(r)["deviation"] for k, r in check.runs.items() if k != "median"}
     doc["envelope_solver"] = {k: _run_dict(r)["solver"] for k, r in check.runs.items() if k != "median"}
     doc["dashes"] = [{"id": s.dash.id, "side": s.side, "kappa_target_per_m": round(float(s.kappa), 4),
@@ -230,6 +243,10 @@ def summary_text(doc: dict, out) -> str:
                  f"iterations, {doc['start']['seconds']:.1f} s), each run carried on from there, as it was refined"]),
              f"  deviation from S-hat ({dev.get('surface', 'mid')} face): RMS {dev['rms_mm']:.1f} mm "
              f"({dev['rms_pct_diag']:.2f}% of the diagonal), max {dev['max_mm']:.1f} mm"]
+    tt = doc.get("to_target", {})
+    if "rms_mm" in tt:
+        lines.append(f"  distance to the target S (same face): RMS {tt['rms_mm']:.1f} mm "
+                     f"({tt['rms_pct_diag']:.2f}% of the diagonal), max {tt['max_mm']:.1f} mm")
     ref = {k: v for k, v in dev.get("surfaces", {}).items() if k != dev.get("surface")}
     if ref:
         lines.append("  other faces (reference): " + ", ".join(

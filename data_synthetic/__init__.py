@@ -7,6 +7,8 @@ One generator per module (functions are not re-exported under their module's nam
 - ``airmat.synthetic.ply_write.write_ply`` -- PLY in every common encoding.
 - ``airmat.synthetic.calibration_set.calibration_set`` -- scans + manifest.csv + truth.json.
 - ``airmat.synthetic.targets`` -- analytic surfaces (cylinder, cone, sphere cap, saddle).
+- ``airmat.synthetic.zoo`` -- the target zoo: 36 seeded targets of every kind, with their mattress and
+  the designer's expected verdict (``bench/bench_zoo.py`` runs them).
 - ``airmat.design.presets.preset`` -- the five target presets with their mattress.
 """
 

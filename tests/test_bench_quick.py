@@ -33,6 +33,7 @@ HEADERS = {
     "bench_refine.py": ["open loop RMS mm (% diag)", "refined RMS mm (% diag)", "ratio"],
     "bench_specimen.py": ["κ₁ polygon (1/m)", "Equation 3 (1/m)", "side / L*"],
     "bench_startup.py": ["current (s)", "loaded now", "| path | HEAD | current |"],
+    "bench_zoo.py": ["| target | kind |", "open loop % diag", "to S: RMS mm (% diag)", "| exit |"],
 }
 #: modules of bench/ that are not benchmarks (imported by them)
 HELPERS = {"designed_preset.py", "kangaroo_baseline.py", "recipe_cylinder.py", "run_all.py"}
