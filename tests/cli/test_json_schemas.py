@@ -96,6 +96,8 @@ def test_without_json_a_refused_fit_prints_nothing_on_stdout(runs, capsys):
     ("inflate", lambda d: d["deviation"].update(rms_mm="13")),
     ("calibration", lambda d: d["parameters"].pop("d_mm")),
     ("retie", lambda d: d["steps"][0].update(action="cut")),
+    ("retie", lambda d: d["counts"].update(retie=3)),            # not one of the five categories
+    ("retie", lambda d: d.pop("cut_tolerance_mm")),
     ("fit", lambda d: d.update(axis=[0, 1])),
 ])
 def test_the_schemas_refuse_a_broken_document(runs, name, edit):
