@@ -274,7 +274,7 @@ def process_rows(n, seed, kappa, arc_deg, repeats=5):
     env = dict(os.environ, PYTHONPATH=str(root) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     with tempfile.TemporaryDirectory() as tmp:
         path = write_scan(Path(tmp) / "scan.ply", scan.points * 1e3, "ply", seed=seed)
-        commands = {"airmat fit": [sys.executable, "-m", "airmat", "fit", str(path)],
+        commands = {"airmat fit": [sys.executable, "-m", "airmat", "fit", str(path), "--json"],
                     "open3d + least_squares script": [sys.executable, str(root / "bench" / "recipe_cylinder.py"),
                                                       str(path)],
                     # the floor of any such script: its imports and the open3d read, no fit at all

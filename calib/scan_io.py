@@ -215,11 +215,18 @@ def _sample_faces(vertices, faces, count, seed):
     return np.asarray(points, dtype=float)
 
 
+def _length(metres: float) -> str:
+    """A specimen's extent as one prints it: metres from 1 m, millimetres below."""
+    return f"{metres:.3g} m" if metres >= 1 else f"{metres * 1e3:.3g} mm"
+
+
 def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units):
     """Too few points, or an extent no specimen scan has.
 
-    The hint names a unit only when the format does not fix the unit (E57,
-    LAS) and the extent in that unit is a typical specimen scan's.
+    The hint names the ``--scan-units`` that reads the file as a typical specimen
+    scan: as a question when the unit was a default, as an alternative when it
+    was chosen; for a format that fixes its unit (E57, LAS) the message also says
+    how large the scan is in that unit (a file written in another one).
     """
     n = len(points)
     if n < MIN_POINTS:
@@ -234,16 +241,21 @@ def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units
     in_file = extent / SCAN_UNITS[unit]
     fits = [u for u, f in SCAN_UNITS.items() if u != unit and TYPICAL_EXTENT[0] <= in_file * f <= TYPICAL_EXTENT[1]]
     size = f"extent {extent * 1e3:.3g} mm" if extent < MIN_EXTENT else f"extent {extent:.3g} m"
-    fits = [] if format_units and not explicit else fits
+    names = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "inches"}
+    fixed = format_units and not explicit   # the format's own unit (E57, LAS): a file written in another one
+    if fixed and fits:
+        other = in_file * SCAN_UNITS[fits[0]]
+        raise InputError(f"{size}: not a specimen scan ({MIN_EXTENT * 1e3:g} mm to {MAX_EXTENT:g} m) the "
+                         f"{path.suffix[1:].upper()} format is in {unit}; read as {names[fits[0]]} it is "
+                         f"{_length(other)}: pass --scan-units {fits[0]}", path=path, extent=extent)
     if fits and not explicit:
-        hint = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "inches"}[fits[0]]
-        raise InputError(f"{size}: are the coordinates in {hint}? pass --scan-units {fits[0]}",
+        raise InputError(f"{size}: are the coordinates in {names[fits[0]]}? pass --scan-units {fits[0]}",
                          path=path, extent=extent)
     what = "large" if extent > MAX_EXTENT else "small"
     if fits:  # the user chose the unit; another one would fit
         raise InputError(f"{size} read in {unit}: too {what} for a specimen scan; pass --scan-units "
                          f"{fits[0]} if the file is in {fits[0]}", path=path, extent=extent)
-    why = f"the {path.suffix[1:].upper()} format is in {unit}" if format_units and not explicit else \
+    why = f"the {path.suffix[1:].upper()} format is in {unit}" if fixed else \
         f"in {unit} or any other unit ({', '.join(SCAN_UNITS)})"
     raise InputError(f"{size}: not a specimen scan ({MIN_EXTENT * 1e3:g} mm to {MAX_EXTENT:g} m) "
                      f"{why}", path=path, extent=extent)

@@ -31,7 +31,8 @@ from airmat.progress import set_progress  # noqa: E402
 __all__ = ["main", "build_parser"]
 
 #: subcommand modules, in the order ``--help`` lists them
-COMMANDS = ("synth", "fit", "calibrate", "design", "refine", "inflate", "retie", "validate", "gallery", "demo")
+COMMANDS = ("synth", "fit", "calibrate", "design", "refine", "inflate", "retie", "validate", "gallery", "demo",
+            "presets", "info")
 
 log = logging.getLogger("airmat")
 
@@ -42,11 +43,15 @@ DESCRIPTION = ("Tension-string patterns that inflate a flat drop-stitch mattress
 #: what ``airmat --help`` says below them
 EPILOG = f"""\
 the usual order:
-  airmat synth S                                       # or your own scans and a manifest.csv
-  airmat calibrate S/manifest.csv --out C              # Equation 3's Delta and d, with their posterior
-  airmat design --preset vault1 --calibration C --out D --refine
-  airmat inflate D --out I                             # how far the inflated mattress lands from the surface
+  airmat synth --out S                                 # or your own scans and a manifest.csv
+  airmat calibrate S/manifest.csv --out C              # Equation 3's Δ and d, with their posterior
+  airmat design --preset vault1 --calibration C --out D --refine    # 'airmat presets' lists them
+  airmat check D --out I                               # how far the inflated mattress lands from Ŝ
+  airmat info I                                        # what a folder holds: key numbers, verdict
   airmat demo                                          # all of it on synthetic data
+
+Every command that writes files writes one folder, --out DIR (default out/COMMAND); old option
+names still work, with a note on stderr.
 
 Lengths are in mm in every file and option, curvature in 1/m. `airmat COMMAND --help` lists a
 command's options. Exit codes: {OK} done; {FAILED} a solver failed outright, nothing written; {BAD_INPUT} bad
@@ -61,7 +66,12 @@ class _Parser(argparse.ArgumentParser):
     def parse_args(self, args=None, namespace=None):
         """As argparse's, but an unknown option is refused by its subcommand's parser, so that the
         line names the subcommand (``airmat design: unrecognized arguments: --x``), as every other
-        error of that subcommand does."""
+        error of that subcommand does. A command called by its other name (``inflate`` for ``check``)
+        is named as it was called, in its usage and error lines."""
+        commands = getattr(self, "commands", {})
+        typed = next((w for w in (sys.argv[1:] if args is None else args) if w in commands), None)
+        if typed is not None:
+            commands[typed].prog = f"{self.prog} {typed}"
         namespace, extra = self.parse_known_args(args, namespace)
         if extra:
             sub = getattr(self, "commands", {}).get(getattr(namespace, "command", None), self)
@@ -137,7 +147,12 @@ def _main(argv):
         command = f"airmat {args.command}"
         _configure_logging(args.verbose, args.quiet)
         set_progress(False if args.quiet else None)
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        if code == OK:      # deprecated spellings: one note each; a failed run keeps its one stderr line
+            from airmat.cli._vocabulary import print_notes
+
+            print_notes(args)
+        return code
     except InputError as err:
         print(f"{command}: {err.one_line()}", file=sys.stderr)
         return BAD_INPUT

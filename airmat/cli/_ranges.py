@@ -7,7 +7,6 @@ has (a thickness of a metre, a pressure of ten bar) and unit slips.
 option              range            why
 ==================  ===============  ==========================================
 ``--thickness-mm``  [10, 500] mm     drop-stitch panels are 50-300 mm thick
-``--d-mm``          [10, 500] mm     the same thickness, in ``synth``
 ``--pressure-pa``   (0, 1e5] Pa      drop-stitch panels hold at most ~1 bar
 ``--L-mm``          [50, 2000] mm    string-end spacing (paper 300 mm)
 ``--resolution-mm`` (0, 75] mm       ``demo``/``gallery``: L/4 for the paper's L = 300 mm;
@@ -32,7 +31,6 @@ __all__ = ["RANGES", "check_range", "check_resolution"]
 #: option -> (low, high, low included, unit)
 RANGES = {
     "--thickness-mm": (10.0, 500.0, True, "mm"),
-    "--d-mm": (10.0, 500.0, True, "mm"),
     "--pressure-pa": (0.0, 1e5, False, "Pa"),
     "--L-mm": (50.0, 2000.0, True, "mm"),
     "--resolution-mm": (0.0, 75.0, False, "mm"),

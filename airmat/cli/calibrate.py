@@ -1,4 +1,4 @@
-"""`airmat calibrate MANIFEST --out DIR`: Equation 3's Delta and d from scans, with uncertainty."""
+"""`airmat calibrate MANIFEST [--out DIR]`: Equation 3's Δ and d from scans, with uncertainty."""
 
 from __future__ import annotations
 
@@ -11,16 +11,18 @@ from airmat.errors import InputError
 
 def add_parser(sub, parents):
     p = sub.add_parser("calibrate", parents=parents,
-                       help="fit cylinders to specimen scans and sample the posterior of Delta and d",
+                       help="fit cylinders to specimen scans and sample the posterior of Δ and d",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("manifest", metavar="MANIFEST",
                    help="CSV with columns scan,l_mm,L_mm[,surface_offset_mm]; scans relative to it")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: calibration.json, posterior.npz, specimens.csv, curve.png, corner.png, report.html")
+    from airmat.cli._vocabulary import add_out_argument
+
+    add_out_argument(p, "calibrate", "calibration.json, posterior.npz, specimens.csv, curve.png, corner.png, "
+                                     "report.html")
     from airmat.cli.fit import add_scan_options
 
     add_scan_options(p, index=False)
-    p.add_argument("--walkers", type=int, default=32, help="emcee walkers (default 32)")
+    p.add_argument("--walkers", type=int, default=32, help="emcee walkers (a count, default 32)")
     p.add_argument("--max-steps", type=int, default=4000,
                    help="cap on the chain length in steps (default 4000)")
     p.add_argument("--truth", metavar="JSON", default=None,

@@ -1,4 +1,4 @@
-"""`airmat demo [--out DIR]`: synth -> calibrate -> design -> refine -> inflate on embedded defaults."""
+"""`airmat demo [--out DIR]`: synth -> calibrate -> design -> refine -> check on embedded defaults."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_range, check_resolution
+from airmat.cli._vocabulary import add_out_argument
 from airmat.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -18,13 +19,14 @@ def add_parser(sub, parents):
     p = sub.add_parser("demo", parents=parents,
                        help="run the whole pipeline on synthetic data and summarise it",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
-    p.add_argument("--out", default="out/demo", metavar="DIR",
-                   help="output folder (default out/demo): report.html, synth/, calibration/, design/, inflate/")
-    p.add_argument("--preset", default="vault1",
-                   help="target preset to design and inflate (default vault1)")
-    p.add_argument("--points", type=int, default=100_000, help="points per synthetic scan (default 100000)")
+    add_out_argument(p, "demo", "report.html, synth/, calibration/, design/, inflate/ (the check)")
+    p.add_argument("--preset", default="vault1", metavar="NAME",
+                   help="target preset to design and check ('airmat presets' lists them; default vault1)")
+    p.add_argument("--points", type=int, default=100_000,
+                   help="points per synthetic scan (a count, default 100000)")
     p.add_argument("--resolution-mm", type=float, default=20.0,
-                   help="mesh edge length of the refinement and the inflation check (default 20, as 'airmat inflate')")
+                   help="mesh edge length of the refinement and the inflation check (mm, default 20, as "
+                        "'airmat check')")
     p.add_argument("--no-refine", dest="refine", action="store_false",
                    help="check the open-loop string lengths, without refining them through the inflation")
     add_jobs_argument(p)
@@ -63,7 +65,8 @@ def summary(out: Path, cal, truth: dict, design, check, seconds: dict, refinemen
         f"               {len(design.pattern.strings)} strings: "
         + ", ".join(f"{v} {k}" for k, v in sorted(count.items())),
         *([] if refinement is None else [_refine_line(refinement)]),
-        f"  inflation    deviation from S-hat: RMS {dev.rms * 1e3:.1f} mm ({dev.rms_pct_diag:.2f}% of the "
+        f"  inflation    deviation of the {check.surface} face from Ŝ: RMS {dev.rms * 1e3:.1f} mm "
+        f"({dev.rms_pct_diag:.2f}% of the "
         f"diagonal), max {dev.max * 1e3:.1f} mm" + (env if len(runs) > 1 else ""),
         "  time         " + ", ".join(f"{k} {v:.1f} s" for k, v in seconds.items()),
         f"  files        {out}/report.html, {out}/synth, {out}/calibration, {out}/design, {out}/inflate",
@@ -77,7 +80,7 @@ def _refine_line(r) -> str:
     return (f"  refinement   RMS {b.rms * 1e3:.1f} -> {a.rms * 1e3:.1f} mm ({b.rms_pct_diag:.2f} -> "
             f"{a.rms_pct_diag:.2f}% of the diagonal), {r.iterations} Gauss-Newton iterations, "
             + ("" if r.reparametrization is None else
-               f"S-hat's points moved {r.reparametrization.moved_rms * 1e3:.1f} mm RMS along it, ")
+               f"Ŝ's points moved {r.reparametrization.moved_rms * 1e3:.1f} mm RMS along it, ")
             + f"{'converged' if r.converged else 'NOT CONVERGED'}{dropped}")
 
 
@@ -163,7 +166,7 @@ def run(args) -> int:
         seconds["inflate"] = time.perf_counter() - t
         text = summary(out, cal, cs.truth, result, checked, seconds, refinement)
         page_text = "\n".join(ln for ln in text.splitlines() if not ln.lstrip().startswith("time "))
-        write_report(tmp, calibration=cal, design=result, check=checked, summary=page_text,
+        write_report(tmp, calibration=cal, design=result, check=checked, summary=page_text, truth=cs.truth,
                      title=f"airmat demo: {args.preset}")
     print(text)
     return not_converged("demo", calibration_not_converged(cal) + design_not_converged(result)

@@ -1,4 +1,4 @@
-"""`airmat design TARGET|--preset NAME --out DIR`: the string pattern that bends the mattress into a target."""
+"""`airmat design TARGET|--preset NAME [--out DIR]`: the string pattern that bends the mattress into a target."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import logging
 import re
 
 from airmat.cli._ranges import RANGES, check_range
+from airmat.cli._vocabulary import add_out_argument, deprecated_alias
 from airmat.cli._refining import (check_corrections, check_regularization, check_rounds, refine_lines,
                                   refine_not_converged, refine_options, wrote_line)
 from airmat.constants import PAPER_D
@@ -25,30 +26,38 @@ def add_parser(sub, parents):
                                                     "vault2, roof (2600x1600 mm)")
     p.add_argument("--mattress", metavar="WxH", help="mattress size in mm, e.g. 830x740 "
                                                      "(required with TARGET; a preset brings its own)")
-    p.add_argument("--thickness-mm", type=float, default=None, help="inflated thickness (default 70)")
-    p.add_argument("--units", default="mm", help="units of the TARGET file: mm, cm, m, in (default mm)")
+    p.add_argument("--thickness-mm", type=float, default=None,
+                   help="inflated thickness d (mm, default: the preset's, else 70)")
+    p.add_argument("--target-units", choices=("mm", "cm", "m", "in"), default="mm",
+                   help="unit of the TARGET file's coordinates (default mm)")
+    deprecated_alias(p, "--units", "--target-units")
     p.add_argument("--calibration", metavar="DIR", help="output folder of 'airmat calibrate'; without it the "
                                                          "paper's values are used and outputs say UNCALIBRATED")
     p.add_argument("--L-mm", dest="L_mm", type=float, default=None,
-                   help="geodesic spacing of string ends (default: the calibration's, paper 300)")
+                   help="geodesic spacing L of string ends (mm; default: the calibration's, paper 300)")
     p.add_argument("--mu1-mm", type=float, default=None,
-                   help="period of the dashes along a line (default: L, dashes end to end; paper 400)")
+                   help="period of the dashes along a line (mm; default: L, dashes end to end; paper 400)")
     p.add_argument("--mu2-mm", type=float, default=50.0,
-                   help="spacing of neighbouring lines (default 50; paper 100)")
-    p.add_argument("--margin-mm", type=float, default=30.0, help="dashes stay this far from the edge (default 30)")
-    p.add_argument("--spacing-mm", type=float, default=20.0, help="mesh spacing of the mattress (default 20)")
-    p.add_argument("--step-mm", type=float, default=None, help="line integration step (default min(mu2/10, 10))")
+                   help="spacing of neighbouring lines (mm, default 50; paper 100)")
+    p.add_argument("--margin-mm", type=float, default=30.0,
+                   help="dashes stay this far from the edge (mm, default 30)")
+    p.add_argument("--resolution-mm", type=float, default=20.0,
+                   help="mesh edge length of the mattress for the design (mm, default 20)")
+    deprecated_alias(p, "--spacing-mm", "--resolution-mm")
+    p.add_argument("--step-mm", type=float, default=None,
+                   help="line integration step (mm, default min(mu2/10, 10))")
     p.add_argument("--kappa-min-per-m", type=float, default=0.25,
                    help="|curvature| below which no string is needed (default 0.25 1/m)")
     p.add_argument("--weight-min", type=float, default=0.0,
-                   help="lines stop where the principal-direction weight is below this (umbilics, where "
-                        "any direction bends alike; default 0: trace through the smoothed line field)")
+                   help="lines stop where the principal-direction weight (dimensionless, 0 to 1) is below this "
+                        "(umbilics, where any direction bends alike; default 0: trace through the smoothed line "
+                        "field)")
     p.add_argument("--tie-grid-mm", type=float, default=20.0,
                    help="pitch of the grid mesh on the mattress's faces: string ends are tied to its nodes "
-                        "(default 20, paper §2.1; 0: free positions)")
-    p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (default: the relaxation's)")
-    p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (default: the relaxation's)")
-    p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (default: the relaxation's)")
+                        "(mm, default 20, paper §2.1; 0: free positions)")
+    p.add_argument("--k-a1", type=float, default=None, help="U_A edge-length weight (dimensionless; default: the relaxation's)")
+    p.add_argument("--k-a2", type=float, default=None, help="U_A closest-point weight (dimensionless; default: the relaxation's)")
+    p.add_argument("--k-a3", type=float, default=None, help="U_A smoothing weight (dimensionless; default: the relaxation's)")
     p.add_argument("--flat-metric", action="store_true",
                    help="relax Ŝ in the flat mattress's metric everywhere (the paper's A1), not in the metric of "
                         "the face Ŝ stands for (which its own strings shorten on a saddle)")
@@ -59,21 +68,21 @@ def add_parser(sub, parents):
                    help="refine the string lengths through the simulated inflation (adjoint Gauss-Newton), "
                         "so that the inflated named face lands on the approximated surface")
     p.add_argument("--refine-resolution-mm", type=float, default=20.0,
-                   help="mesh edge length of the refinement's inflations (default 20)")
+                   help="mesh edge length of the refinement's inflations (mm, default 20; 'airmat refine "
+                        "--resolution-mm')")
     p.add_argument("--refine-single-level", action="store_true",
                    help="with --refine: every Gauss-Newton iteration at --refine-resolution-mm (slower, closer)")
     p.add_argument("--refine-defect-corrections", type=int, default=0, metavar="N",
                    help="with --refine: re-correct the coarse mesh by the fine one up to N times where its "
                         "iterations stop early (see 'airmat refine --defect-corrections'; default 0)")
     p.add_argument("--refine-regularization", type=float, default=None, metavar="ALPHA",
-                   help="with --refine: weight of the pull toward the open-loop lengths (see 'airmat refine "
-                        "--regularization'; default 1e-3)")
+                   help="with --refine: weight of the pull toward the open-loop lengths (dimensionless, see 'airmat "
+                        "refine --regularization'; default 1e-3)")
     p.add_argument("--refine-reparametrize", type=int, default=None, metavar="N",
                    help="with --refine: rounds of the surface's points moved to where the refined mattress puts "
                         "them (see 'airmat refine --reparametrize'; default 1)")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
-                        "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
+    add_out_argument(p, "design", "design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
+                               "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
     p.add_argument("--paper", action="append", choices=("A4", "A3"), default=None,
                    help="also write pattern_A4.pdf / pattern_A3.pdf: the 1:1 drawing tiled over pages of that "
                         "size, with crop marks, page numbers and a 20 mm overlap (repeat for both)")
@@ -133,13 +142,13 @@ def _mattress_and_target(args):
         raise InputError("--mattress WxH (mm) is required with a TARGET file, e.g. --mattress 830x740")
     thickness = PAPER_D if args.thickness_mm is None else mm_to_m(args.thickness_mm)
     mattress = Mattress(size[0], size[1], thickness)
-    return mattress, lambda: load_target(args.target, units=args.units, mattress=mattress)
+    return mattress, lambda: load_target(args.target, units=args.target_units, mattress=mattress)
 
 
 def _params(args):
     from airmat.design.pipeline import DesignParams
 
-    _positive(args, ["L_mm", "mu1_mm", "mu2_mm", "spacing_mm", "step_mm", "thickness_mm", "k_a1"])
+    _positive(args, ["L_mm", "mu1_mm", "mu2_mm", "resolution_mm", "step_mm", "thickness_mm", "k_a1"])
     check_range("--thickness-mm", args.thickness_mm)
     check_range("--L-mm", args.L_mm)
     if not (args.margin_mm >= 0 and args.kappa_min_per_m >= 0 and args.weight_min >= 0
@@ -149,7 +158,7 @@ def _params(args):
                          "must be >= 0")
     mm = 1e-3
     return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=None if args.mu1_mm is None else args.mu1_mm * mm,
-                        mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.spacing_mm * mm,
+                        mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.resolution_mm * mm,
                         step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
                         weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm,
@@ -210,7 +219,7 @@ def run(args) -> int:
     try:
         check_spacing(mattress, params.spacing)
     except InputError as err:
-        raise InputError(f"--spacing-mm {args.spacing_mm:g}: {err.message}") from None
+        raise InputError(f"--resolution-mm {args.resolution_mm:g}: {err.message}") from None
     L = params.L if params.L is not None else (calibration.L if calibration else PAPER["L"])
     check_stripe_params(params.stripe_params(L), mattress.width, mattress.height)
     if args.refine and not (args.refine_resolution_mm > 0):

@@ -1,4 +1,4 @@
-"""`airmat fit SCAN`: curvature of one scanned cylindrical specimen, as JSON on stdout."""
+"""`airmat fit SCAN [--json]`: curvature of one scanned cylindrical specimen: a few lines on stdout, or JSON."""
 
 from __future__ import annotations
 
@@ -11,10 +11,12 @@ from airmat.units import M_TO_MM, SCAN_UNITS
 def add_parser(sub, parents):
     p = sub.add_parser(
         "fit", parents=parents,
-        help="fit a cylinder to a specimen scan; print kappa and its error as JSON",
+        help="fit a cylinder to a specimen scan; print its radius and κ with its error",
         description="Robust cylinder fit of a scanned specimen (floor, clutter, holes and "
-                    "string-end grooves allowed). Prints one JSON object: radius_mm, "
-                    "kappa_per_m, kappa_se_per_m, axis, inlier_fraction, rms_mm, arc_deg, ...")
+                    "string-end grooves allowed). Prints a short summary: radius (mm), κ ± its "
+                    "standard error (1/m), inliers, arc, converged; with --json one JSON object "
+                    "instead: radius_mm, kappa_per_m, kappa_se_per_m, axis, inlier_fraction, rms_mm, "
+                    "arc_deg, ...")
     p.add_argument("scan", metavar="SCAN",
                    help="scan file: E57, LAS/LAZ, PCD, PLY (points or mesh), OBJ, STL, OFF, GLB/glTF, "
                         "PTS/XYZ/TXT columns")
@@ -22,7 +24,8 @@ def add_parser(sub, parents):
     p.add_argument("--noise-mm", type=float, default=None,
                    help="scanner noise (standard deviation, mm); estimated from the scan when omitted")
     p.add_argument("--json", action="store_true",
-                   help="for scripts: a refused fit also prints its error as one JSON object on stdout "
+                   help="for scripts: print the fit as one JSON object (airmat/schemas/fit.schema.json; mm and "
+                        "1/m) instead of the summary; a refused fit prints its error as one JSON object too "
                         "({error: {type, message, path, exit_code}}; exit code and stderr line unchanged)")
     p.set_defaults(func=run)
 
@@ -34,7 +37,8 @@ def add_scan_options(p, *, index=True):
                         "whose formats fix it; millimetres otherwise)")
     if index:
         p.add_argument("--scan-index", type=int, default=None, metavar="N",
-                       help="multi-scan E57: fit scan N only (from 0); default: all scans merged with their poses")
+                       help="multi-scan E57: fit scan N only (an index from 0); default: all scans merged with "
+                        "their poses")
 
 
 def run(args) -> int:
@@ -84,8 +88,46 @@ def _fit(args) -> int:
     except InputError as err:
         raise err.with_path(scan.path)
     check()
-    _print_json(fit_to_json(fit, scan))
+    doc = fit_to_json(fit, scan)
+    if args.json:
+        _print_json(doc)
+    else:
+        sys.stdout.write(summary_text(doc) + "\n")
+        sys.stdout.flush()
     return not_converged("fit", [] if fit.converged else [f"{scan.path}: cylinder fit: {fit.message}"])
+
+
+def summary_text(doc: dict) -> str:
+    """The few lines ``airmat fit`` prints without ``--json``, from its JSON record (mm, 1/m).
+
+    Examples
+    --------
+    >>> print(summary_text({"scan": "s.ply", "kind": "points", "scan_units": "mm", "n_scans": 1,
+    ...     "radius_mm": 250.04, "kappa_per_m": 3.9994, "kappa_se_per_m": 0.0123, "n_inliers": 23600,
+    ...     "n_points": 30000, "n_support": 6000, "inlier_fraction": 0.9833, "rms_mm": 0.21, "arc_deg": 60.2,
+    ...     "converged": True, "n_iter": 7, "message": "ok"}))
+    airmat fit: s.ply (points in mm)
+      radius     250.0 mm
+      κ          3.999 ± 0.012 1/m (standard error)
+      inliers    23600 of the 24000 points off the floor (98.3 %), RMS 0.21 mm
+      arc        60.2°
+      converged  yes (7 iterations)
+    """
+    def num(x, fmt):
+        return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
+
+    radius = "infinite (flat: no curvature measured)" if doc["radius_mm"] is None \
+        else f"{num(doc['radius_mm'], '.1f')} mm"
+    scans = f", {doc['n_scans']} scans" if doc.get("n_scans", 1) > 1 else ""
+    return "\n".join([
+        f"airmat fit: {doc['scan']} ({doc['kind']} in {doc['scan_units']}{scans})",
+        f"  radius     {radius}",
+        f"  κ          {num(doc['kappa_per_m'], '.3f')} ± {num(doc['kappa_se_per_m'], '.3f')} 1/m (standard error)",
+        f"  inliers    {doc['n_inliers']} of the {doc['n_points'] - doc.get('n_support', 0)} points off the floor "
+        f"({100 * doc['inlier_fraction']:.1f} %), RMS {num(doc['rms_mm'], '.2f')} mm",
+        f"  arc        {num(doc['arc_deg'], '.1f')}°",
+        f"  converged  " + (f"yes ({doc['n_iter']} iterations)" if doc["converged"] else f"NO: {doc['message']}"),
+    ])
 
 
 def fit_to_json(fit, scan) -> dict:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_resolution
+from airmat.cli._vocabulary import add_out_argument
 from airmat.errors import InputError
 
 # airmat.design.presets.PRESETS (a test keeps them equal), without importing the designer at start-up
@@ -20,14 +21,15 @@ REFINE_COLUMNS = "| open loop RMS % diag | refine iterations |"
 
 def add_parser(sub, parents):
     p = sub.add_parser("gallery", parents=parents,
-                       help="design and inflate all five presets; write a Table-1-style table",
+                       help="design and check all five presets; write a Table-1-style table",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
-    p.add_argument("--out", default="out/gallery", metavar="DIR", help="output folder (default out/gallery)")
-    p.add_argument("--presets", default=",".join(PRESETS), help="comma-separated presets (default: all five)")
+    add_out_argument(p, "gallery", "gallery.md, gallery.json, a design and a check folder per preset")
+    p.add_argument("--presets", default=",".join(PRESETS), metavar="NAME,...",
+                   help="comma-separated presets ('airmat presets' lists them; default: all five)")
     p.add_argument("--resolution-mm", type=float, default=20.0,
-                   help="mesh edge length of the inflation check (default 20, as 'airmat inflate')")
+                   help="mesh edge length of the inflation check (mm, default 20, as 'airmat check')")
     p.add_argument("--calibration", metavar="DIR", default=None,
-                   help="calibration folder (default: the paper's values, UNCALIBRATED)")
+                   help="output folder of 'airmat calibrate' (default: the paper's values, UNCALIBRATED)")
     p.add_argument("--refine", action="store_true",
                    help="refine each design's string lengths through the inflation (at --resolution-mm) "
                         "before checking it; the table gives the open-loop deviation next to the refined one")

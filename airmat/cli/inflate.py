@@ -1,29 +1,34 @@
-"""`airmat inflate DESIGN_DIR --out DIR`: simulate the inflation of a design and compare it with Ŝ."""
+"""`airmat check DESIGN_DIR [--out DIR]`: simulate the inflation of a design and compare it with Ŝ.
+
+The check stage's command; ``airmat inflate`` is its other name (an alias: the same parser, and the
+name the run was called by in its stderr lines).
+"""
 
 from __future__ import annotations
 
 from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
 from airmat.cli._ranges import check_range
+from airmat.cli._vocabulary import add_out_argument
 from airmat.errors import InputError
 
 
 def add_parser(sub, parents):
-    p = sub.add_parser("inflate", parents=parents,
-                       help="simulate the mattress inflating with its string pattern (paper §3.4)",
+    p = sub.add_parser("check", aliases=["inflate"], parents=parents,
+                       help="simulate the mattress inflating with its string pattern and measure how far it lands "
+                            "from Ŝ (paper §3.4)",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: inflate.json, inflated.ply, inflated.3dm (Rhino), deviation.png, report.html")
+    add_out_argument(p, "check", "inflate.json, inflated.ply, inflated.3dm (Rhino), deviation.png, report.html")
     p.add_argument("--resolution-mm", type=float, default=20.0,
-                   help="edge length of the double-layer mesh (default 20, near the loop-pin spacing)")
-    p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (default 2000 Pa)")
+                   help="edge length of the double-layer mesh (mm, default 20, near the loop-pin spacing)")
+    p.add_argument("--pressure-pa", type=float, default=None, help="inflation pressure (Pa, default 2000)")
     p.add_argument("--no-envelope", action="store_true",
                    help="skip the runs with every string at its lo95 and hi95 length")
     p.add_argument("--calibrated-map", action="store_true",
                    help="simulate each string at the rest length that makes the simulated specimen bend as the "
-                        "calibration says (built from specimen runs at this resolution, cached), not at l + 2 delta")
+                        "calibration says (built from specimen runs at this resolution, cached), not at l + 2Δ")
     p.add_argument("--samples", type=int, default=0, metavar="K",
-                   help="also inflate K Monte-Carlo samples of the string lengths (calibration posterior and "
+                   help="also inflate K (a count) Monte-Carlo samples of the string lengths (calibration posterior and "
                         "per-string scatter): RMS quantiles, inflated_bands.ply, the 95%% band (default 0: none)")
     p.add_argument("--tolerance-mm", type=float, default=None, metavar="T",
                    help="with --samples: report the probability that the RMS deviation is <= T mm")
@@ -66,12 +71,12 @@ def run(args) -> int:
                    tolerance=args.tolerance_mm * MM if args.tolerance_mm is not None else None)
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
-        write_report(tmp, check=result, title=f"airmat inflate: {design.name}")
+        write_report(tmp, check=result, title=f"airmat {getattr(args, 'command', 'check')}: {design.name}")
     print(summary_text(doc, args.out))
     if design.refine is None and len(design.pattern.strings):
         print(f"  next: these are the open-loop lengths (Equation 3, one dash at a time); "
               f"'airmat refine {args.design} --out DIR' adjusts them together through the inflation")
-    return not_converged("inflate", check_not_converged(result))
+    return not_converged(getattr(args, "command", "check"), check_not_converged(result))
 
 
 def check_not_converged(result) -> list[str]:

@@ -1,9 +1,10 @@
-"""`airmat refine DESIGN_DIR --out DIR`: refine a design's string lengths through the simulated inflation."""
+"""`airmat refine DESIGN_DIR [--out DIR]`: refine a design's string lengths through the simulated inflation."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from airmat.cli._vocabulary import add_out_argument
 from airmat.errors import InputError
 from airmat.cli._refining import (check_corrections, check_regularization, check_rounds, refine_lines,
                                   refine_not_converged, refine_options, wrote_line)
@@ -14,13 +15,12 @@ def add_parser(sub, parents):
                        help="refine the string lengths through the inflation so that it lands on the surface",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("design", metavar="DESIGN_DIR", help="output folder of 'airmat design'")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="output folder: the refined design (the files of 'airmat design', with a 'refine' "
-                        "block in design.json)")
+    add_out_argument(p, "refine", "the refined design (the files of 'airmat design', with a 'refine' block in "
+                               "design.json)")
     p.add_argument("--resolution-mm", type=float, default=20.0,
-                   help="mesh edge length of the inflations (default 20); 'airmat inflate' at the same "
+                   help="mesh edge length of the inflations (mm, default 20); 'airmat check' at the same "
                         "resolution reproduces the promised deviation")
-    p.add_argument("--max-iter", type=int, default=20, help="Gauss-Newton iterations (default 20)")
+    p.add_argument("--max-iter", type=int, default=20, help="Gauss-Newton iterations (a count, default 20)")
     p.add_argument("--single-level", action="store_true",
                    help="run every Gauss-Newton iteration at --resolution-mm (slower, closer; measured in "
                         "docs/decisions.md, Refinement); default: on twice that mesh")
@@ -30,7 +30,7 @@ def add_parser(sub, parents):
                         "costs: docs/benchmarks.md, 'bench/bench_refine.py --corrections 0 1')")
     p.add_argument("--regularization", type=float, default=None, metavar="ALPHA",
                    help="weight of the pull toward the open-loop lengths, alpha * mean((l* - l*_open)^2) beside "
-                        "the mean squared deviation (default 1e-3: a 32 mm change of every string costs as much "
+                        "the mean squared deviation (dimensionless, default 1e-3: a 32 mm change of every string costs as much "
                         "as 1 mm RMS)")
     p.add_argument("--reparametrize", type=int, default=None, metavar="N",
                    help="rounds of the surface's points moved along it to where the refined mattress puts them "
@@ -66,6 +66,6 @@ def run(args) -> int:
         write_report(tmp, design=refinement.design, title=f"airmat refine: {design.name}")
     print("\n".join([f"airmat refine: {design.name} -> {args.out}", *refine_lines(refinement.block()),
                      wrote_line(args.out),
-                     f"  next: 'airmat inflate {args.out} --out DIR --resolution-mm {args.resolution_mm:g}' inflates "
+                     f"  next: 'airmat check {args.out} --out DIR --resolution-mm {args.resolution_mm:g}' inflates "
                      f"the refined lengths (the same deviation) with their lo95/hi95 envelope"]))
     return not_converged("refine", refine_not_converged(refinement))

@@ -1,8 +1,11 @@
-"""`airmat synth OUTDIR`: write a synthetic calibration set (scans, manifest.csv, truth.json)."""
+"""`airmat synth [--out DIR]`: write a synthetic calibration set (scans, manifest.csv, truth.json)."""
 
 from __future__ import annotations
 
+import argparse
+
 from airmat.cli._ranges import check_range
+from airmat.cli._vocabulary import add_note, add_out_argument, default_out, deprecated_alias
 from airmat.errors import InputError
 
 
@@ -17,20 +20,36 @@ def _ratios(text: str) -> tuple:
     return values
 
 
+def output_folder(args) -> str:
+    """``--out``, else the old positional OUTDIR (with a note), else ``out/synth``; both at once is refused."""
+    if args.outdir is not None and args.out is not None:
+        raise InputError(f"give the output folder once: --out {args.out} (the positional {args.outdir} is "
+                         "its old form)")
+    if args.outdir is not None:
+        add_note(args, f"airmat synth: the positional OUTDIR is deprecated, use --out {args.outdir}")
+        return args.outdir
+    return args.out if args.out is not None else default_out("synth")
+
+
 def add_parser(sub, parents):
     p = sub.add_parser("synth", parents=parents,
-                       help="write a synthetic calibration set with known Delta, d and scatter",
+                       help="write a synthetic calibration set with known Δ, d and scatter",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
-    p.add_argument("outdir", metavar="OUTDIR", help="output folder (created; files replaced)")
-    p.add_argument("--delta-mm", type=float, default=18.0, help="true string-end slip Delta (mm, default 18)")
-    p.add_argument("--d-mm", type=float, default=70.0, help="true mattress thickness d (mm, default 70)")
+    # the old form of --out, still accepted (with a note)
+    p.add_argument("outdir", nargs="?", default=None, metavar="OUTDIR", help=argparse.SUPPRESS)
+    add_out_argument(p, "synth", "the scans, manifest.csv, truth.json", default=False)
+    p.add_argument("--delta-mm", type=float, default=18.0, help="true string-end slip Δ (mm, default 18)")
+    p.add_argument("--thickness-mm", type=float, default=70.0,
+                   help="true mattress thickness d (mm, default 70)")
+    deprecated_alias(p, "--d-mm", "--thickness-mm")
     p.add_argument("--L-mm", type=float, default=300.0, dest="L_mm",
                    help="geodesic distance L of the string ends (mm, default 300)")
     p.add_argument("--l-over-L", default=None, dest="l_over_L", metavar="R1,R2,...",
-                   help="string length ratios (default: 12 from 0.3 to 0.95)")
-    p.add_argument("--points", type=int, default=100_000, help="points per scan (default 100000)")
+                   help="string length ratios l/L (dimensionless; default: 12 from 0.3 to 0.95)")
+    p.add_argument("--points", type=int, default=100_000, help="points per scan (a count, default 100000)")
     p.add_argument("--scatter", type=float, default=0.03,
-                   help="log-sd of the lognormal specimen-to-specimen curvature scatter (default 0.03)")
+                   help="log-sd of the lognormal specimen-to-specimen curvature scatter (dimensionless, "
+                        "default 0.03)")
     p.set_defaults(func=run)
 
 
@@ -40,8 +59,9 @@ def run(args) -> int:
     from airmat.units import MM
     from airmat.synthetic.calibration_set import DEFAULT_L_OVER_L, calibration_set
 
-    check_out_dir(args.outdir)
-    check_range("--d-mm", args.d_mm)
+    out = output_folder(args)
+    check_out_dir(out)
+    check_range("--thickness-mm", args.thickness_mm)
     check_range("--L-mm", args.L_mm)
     if not (0 <= args.delta_mm < args.L_mm / 2):
         raise InputError(f"--delta-mm: {args.delta_mm:g} mm is outside [0, L/2) = [0, {args.L_mm / 2:g}) mm")
@@ -50,7 +70,7 @@ def run(args) -> int:
     check_range("--points", args.points)
     ratios = DEFAULT_L_OVER_L if args.l_over_L is None else _ratios(args.l_over_L)
     check()  # a Ctrl-C that a library's import swallowed
-    cs = calibration_set(args.outdir, delta=args.delta_mm * MM, d=args.d_mm * MM, L=args.L_mm * MM,
+    cs = calibration_set(out, delta=args.delta_mm * MM, d=args.thickness_mm * MM, L=args.L_mm * MM,
                          l_over_L=ratios, n_points=args.points, scatter=args.scatter,
                          seed=args.seed)
     t = cs.truth
@@ -58,5 +78,5 @@ def run(args) -> int:
           f"to {cs.folder}\n"
           f"truth: Delta = {t['delta_mm']:g} mm, d = {t['d_mm']:g} mm, L = {t['L_mm']:g} mm, "
           f"sigma = {t['sigma_per_m']:.3f} 1/m (flat from l = {t['flat_l_mm']:.1f} mm)\n"
-          f"next: airmat calibrate {cs.manifest} --out <DIR> --truth {cs.truth_path}")
+          f"next: airmat calibrate {cs.manifest} --truth {cs.truth_path} [--out DIR]")
     return 0

@@ -1,4 +1,4 @@
-"""`airmat validate --out DIR [--calibration DIR]`: the simulated cylindrical-specimen experiment against Equation 3.
+"""`airmat validate [--out DIR] [--calibration DIR]`: the simulated cylindrical-specimen experiment against Equation 3.
 
 With ``--calibration`` the specimen is simulated at the calibration's L, each real string
 length through the calibrated length map (``airmat.check.length_map``), and compared with the
@@ -8,26 +8,26 @@ calibrated κ₁ median (Equation 3 with the posterior median's Δ and d).
 from __future__ import annotations
 
 from airmat.cli._jobs import add_jobs_argument, jobs, scheduler
+from airmat.cli._vocabulary import add_out_argument
 from airmat.errors import InputError
 
 
 def add_parser(sub, parents):
     p = sub.add_parser("validate", parents=parents,
-                       help="simulate the paper's specimen experiment and compare with Equation 3 (Delta = 0)",
+                       help="simulate the paper's specimen experiment and compare with Equation 3 (Δ = 0)",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="output folder of 'airmat calibrate': simulate through its calibrated length map and compare "
-                        "with its kappa_1 median")
+                        "with its κ₁ median")
     p.add_argument("--thickness-mm", type=float, default=None,
-                   help="mattress thickness of the specimen (default 70, or the calibration's median d)")
+                   help="mattress thickness d of the specimen (mm, default 70, or the calibration's median d)")
     p.add_argument("--L-mm", dest="L_mm", type=float, default=None,
-                   help="string span L of the specimen (default 300, the paper's; with --calibration: the "
+                   help="string span L of the specimen (mm, default 300, the paper's; with --calibration: the "
                         "calibration's)")
-    p.add_argument("--out", default="out/validate", metavar="DIR",
-                   help="output folder: validate.json, validate.csv, validate.png (default out/validate)")
-    p.add_argument("--l-over-L", dest="ratios", default="0.3,0.4,0.5,0.6,0.7,0.8,0.9",
-                   help="string length ratios (default 0.3,...,0.9)")
-    p.add_argument("--resolution-mm", type=float, default=40.0, help="mesh edge length (default 40)")
+    add_out_argument(p, "validate", "validate.json, validate.csv, validate.png")
+    p.add_argument("--l-over-L", dest="l_over_L", default="0.3,0.4,0.5,0.6,0.7,0.8,0.9", metavar="R1,R2,...",
+                   help="string length ratios l/L (dimensionless; default 0.3,...,0.9)")
+    p.add_argument("--resolution-mm", type=float, default=40.0, help="mesh edge length (mm, default 40)")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
@@ -101,11 +101,11 @@ def run(args) -> int:
 
     check_out_dir(args.out)
     try:
-        ratios = [float(x) for x in args.ratios.split(",") if x.strip()]
+        ratios = [float(x) for x in args.l_over_L.split(",") if x.strip()]
     except ValueError:
-        raise InputError(f"--l-over-L {args.ratios!r}: expected comma-separated numbers") from None
+        raise InputError(f"--l-over-L {args.l_over_L!r}: expected comma-separated numbers") from None
     if not ratios or any(not (0 < r < 1) for r in ratios):
-        raise InputError(f"--l-over-L {args.ratios!r}: ratios must lie in (0, 1)")
+        raise InputError(f"--l-over-L {args.l_over_L!r}: ratios must lie in (0, 1)")
     if args.L_mm is not None:
         if args.calibration is not None:
             raise InputError("--L-mm: the calibration fixes L (its manifest's L_mm); give one or the other")

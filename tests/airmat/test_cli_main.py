@@ -51,7 +51,7 @@ def test_the_help_examples_parse_and_the_exit_codes_are_the_real_ones(capsys):
         main(["--help"])
     assert EPILOG.splitlines()[-1] in capsys.readouterr().out
     examples = [ln.split("#")[0].split()[1:] for ln in EPILOG.splitlines() if ln.strip().startswith("airmat ")]
-    assert len(examples) == 5
+    assert len(examples) == 6
     parser = build_parser()
     for argv in examples:
         args = parser.parse_args(argv)            # exits 2 on a line that does not parse

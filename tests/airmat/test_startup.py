@@ -66,7 +66,7 @@ def test_airmat_fit_runs_without_the_designer_the_simulator_or_matplotlib(tmp_pa
 import contextlib, io
 from airmat.cli import main
 with contextlib.redirect_stdout(io.StringIO()) as out:
-    code = main(["fit", {str(path)!r}, "-q"])
+    code = main(["fit", {str(path)!r}, "-q", "--json"])
 print(json.dumps({{"code": code, "kappa": json.loads(out.getvalue())["kappa_per_m"], "loaded": loaded()}}))
 """)
     assert got["code"] == 0

@@ -36,7 +36,7 @@ def test_cli_refine_writes_the_refined_design_and_bad_input_writes_nothing(case,
     text = capsys.readouterr().out
     assert "surface points moved" in text
     assert wrote(text, out) == {p.name for p in out.iterdir()}        # every file of the folder, no other
-    assert f"'airmat inflate {out} --out DIR --resolution-mm 40'" in text
+    assert f"'airmat check {out} --out DIR --resolution-mm 40'" in text
     assert main(["inflate", str(out), "--out", str(tmp_path / "inf"), "--resolution-mm", "40",
                  "--no-envelope"]) == 0
     text = capsys.readouterr().out

@@ -46,7 +46,8 @@ def test_synth_options_reach_the_truth(tmp_path):
 @pytest.mark.parametrize("args, match", [
     (["--l-over-L", "0.3,zero,0.9"], "expected comma-separated numbers"),
     (["--l-over-L", "0.3,0.6"], "at least 3"),
-    (["--d-mm", "-70"], "--d-mm: -70 mm is outside [10, 500] mm"),
+    (["--thickness-mm", "-70"], "--thickness-mm: -70 mm is outside [10, 500] mm"),
+    (["--d-mm", "-70"], "--thickness-mm: -70 mm is outside [10, 500] mm"),   # the old name, same check
 ])
 def test_synth_bad_input(tmp_path, capsys, args, match):
     out = tmp_path / "set"

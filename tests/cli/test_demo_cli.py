@@ -19,7 +19,7 @@ def test_demo_runs_the_whole_pipeline(tmp_path, capsys):
     assert cal["parameters"]["delta_mm"]["lo95"] <= truth["delta_mm"] <= cal["parameters"]["delta_mm"]["hi95"]
     inf = json.loads((out / "inflate" / "inflate.json").read_text())
     assert inf["solver"]["converged"]
-    # a designed preset lands near its S-hat: the vault1 pattern covers the mattress in patches, and the
+    # a designed preset lands near its Ŝ: the vault1 pattern covers the mattress in patches, and the
     # measured RMS deviation is ~3.4 % of the diagonal at 50 mm; 6 % allows the coarser 60 mm mesh
     assert inf["deviation"]["rms_pct_diag"] < 6.0
     # the demo refines the lengths through the inflation, and its check reproduces what the refinement promised
@@ -53,4 +53,4 @@ def test_the_refinement_line_counts_dropped_strings_in_words(dropped, words):
     assert line.endswith(words) and "13.1 -> 13.1 mm" in line and "moved" not in line
     line = _refine_line(SimpleNamespace(deviation_before=dev, deviation_after=dev, iterations=11, converged=True,
                                         dropped=dropped, reparametrization=SimpleNamespace(moved_rms=0.00334)))
-    assert line.endswith(words) and "iterations, S-hat's points moved 3.3 mm RMS along it, converged" in line
+    assert line.endswith(words) and "iterations, Ŝ's points moved 3.3 mm RMS along it, converged" in line

@@ -1,4 +1,5 @@
-"""`airmat fit SCAN`: one JSON object on stdout; bad input exits 2 with one stderr line."""
+"""`airmat fit SCAN`: a short summary on stdout, one JSON object with --json; bad input exits 2 with one stderr
+line; a scan in the wrong unit is named with the --scan-units that reads it."""
 
 import json
 
@@ -31,7 +32,7 @@ def _run(argv, capsys):
 def test_fit_prints_one_json_object_with_the_fields(scan_mm, capsys, tmp_path):
     path, s = scan_mm
     before = sorted(p.name for p in path.parent.iterdir())
-    code, out, err = _run(["fit", str(path), "-q"], capsys)
+    code, out, err = _run(["fit", str(path), "-q", "--json"], capsys)
     assert code == 0, err
     record = json.loads(out)
     for key in FIELDS:
@@ -47,7 +48,7 @@ def test_scan_units_metres(tmp_path, capsys):
     s = specimen_scan(2.0, n_points=20_000, arc_deg=60, seed=8)
     path = tmp_path / "metres.ply"
     write_ply(path, s.points, dtype="float64", encoding="ascii")
-    code, out, err = _run(["fit", str(path), "--scan-units", "m"], capsys)
+    code, out, err = _run(["fit", str(path), "--scan-units", "m", "--json"], capsys)
     assert code == 0, err
     assert json.loads(out)["radius_mm"] == pytest.approx(500.0, rel=0.005)
     # the same file read as millimetres is caught by its size
@@ -60,7 +61,7 @@ def test_scan_units_metres(tmp_path, capsys):
 def test_flat_specimen_has_null_radius(tmp_path, capsys):
     path = tmp_path / "flat.ply"
     write_ply(path, specimen_scan(0.0, n_points=20_000, seed=9).points * 1e3)
-    code, out, err = _run(["fit", str(path)], capsys)
+    code, out, err = _run(["fit", str(path), "--json"], capsys)
     assert code == 0, err
     record = json.loads(out)
     assert record["radius_mm"] is None
@@ -123,7 +124,7 @@ def test_fit_reads_a_multiscan_e57_and_a_georeferenced_laz(tmp_path, capsys):
     poses = [(np.eye(3), np.zeros(3)), (Rotation.from_euler("z", 60, degrees=True).as_matrix(),
                                         np.array([2000.0, 0.0, 500.0]))]
     e57 = write_scan(tmp_path / "two.e57", s.points * 1e3, "e57", poses=poses)
-    code, out, err = _run(["fit", str(e57), "-q"], capsys)
+    code, out, err = _run(["fit", str(e57), "-q", "--json"], capsys)
     assert code == 0, err
     rec = json.loads(out)
     assert rec["n_scans"] == 2 and rec["scan_units"] == "m" and rec["n_points"] == len(s.points)
@@ -132,7 +133,7 @@ def test_fit_reads_a_multiscan_e57_and_a_georeferenced_laz(tmp_path, capsys):
     assert code == 2 and "--scan-index 5 out of range" in err and str(e57) in err
     utm = np.array([5e6, 4.2e6, 300.0])
     laz = write_scan(tmp_path / "utm.laz", (s.points + utm) * 1e3, "laz")
-    code, out, err = _run(["fit", str(laz), "-q"], capsys)
+    code, out, err = _run(["fit", str(laz), "-q", "--json"], capsys)
     assert code == 0, err
     rec = json.loads(out)
     assert rec["radius_mm"] == pytest.approx(250.0, rel=0.005)
@@ -146,7 +147,7 @@ def test_fit_scan_units_cm(tmp_path, capsys):
 
     s = specimen_scan(4.0, n_points=30_000, arc_deg=60, seed=7)
     path = write_scan(tmp_path / "cm.xyz", s.points * 1e2, "xyz")
-    code, out, err = _run(["fit", str(path), "--scan-units", "cm", "-q"], capsys)
+    code, out, err = _run(["fit", str(path), "--scan-units", "cm", "-q", "--json"], capsys)
     assert code == 0, err
     assert json.loads(out)["radius_mm"] == pytest.approx(250.0, rel=0.005)
 
@@ -165,3 +166,41 @@ def test_a_refused_sparse_scan_says_it_may_be_too_sparse(tmp_path, capsys):
     calibration_set(tmp_path / "dense", n_points=10_000, seed=0)
     code, _, err = _run(["fit", str(tmp_path / "dense" / "specimen_04.ply")], capsys)
     assert code == 0, err
+
+
+def test_fit_prints_a_human_summary_by_default(scan_mm, capsys):
+    """Without --json: a few lines (radius mm, κ ± se 1/m, inliers, arc, converged), the same numbers as the JSON."""
+    path, _ = scan_mm
+    code, out, err = _run(["fit", str(path), "-q"], capsys)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0] == f"airmat fit: {path} (points in mm)" and len(lines) == 6
+    code, js, _ = _run(["fit", str(path), "-q", "--json"], capsys)
+    rec = json.loads(js)
+    assert f"radius     {rec['radius_mm']:.1f} mm" in out
+    assert f"κ          {rec['kappa_per_m']:.3f} ± {rec['kappa_se_per_m']:.3f} 1/m" in out
+    assert f"inliers    {rec['n_inliers']} of the " in out and f"arc        {rec['arc_deg']:.1f}°" in out
+    assert lines[-1].startswith("  converged  yes (")
+    with pytest.raises(ValueError):
+        json.loads(out)
+
+
+@pytest.mark.parametrize("fmt,suffix", [("e57", ".e57"), ("laz", ".laz")])
+def test_a_scan_written_in_millimetres_where_the_format_says_metres_names_the_unit(tmp_path, capsys, fmt, suffix):
+    """An E57 or LAZ whose numbers are millimetres (the formats fix metres): refused with the extent it would have
+    in millimetres and the --scan-units that reads it; with that option it fits."""
+    from airmat.synthetic.scan_write import write_scan
+
+    pytest.importorskip("pye57" if fmt == "e57" else "laspy")
+    s = specimen_scan(4.0, n_points=20_000, arc_deg=60, seed=7)
+    path = write_scan(tmp_path / f"in_mm{suffix}", s.points * 1e6, fmt)   # file metres holding millimetres
+    code, out, err = _run(["fit", str(path)], capsys)
+    assert code == 2 and out == ""
+    line = err.strip()
+    assert "\n" not in line and str(path) in line
+    extent_m = float(line.split("extent ")[1].split(" m")[0])
+    assert "not a specimen scan (20 mm to 50 m)" in line and "format is in m" in line
+    assert line.endswith(f"; read as millimetres it is {extent_m / 1e3:.3g} m: pass --scan-units mm"), line
+    code, out, err = _run(["fit", str(path), "--scan-units", "mm", "--json", "-q"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["radius_mm"] == pytest.approx(250.0, rel=0.005)

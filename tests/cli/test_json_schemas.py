@@ -51,7 +51,7 @@ def runs(tmp_path_factory):
     assert _quiet(["inflate", str(r / "a"), "--out", str(r / "inf"), "--resolution-mm", "60", "--jobs", "1",
                    "--no-envelope"])[0] == 0
     assert _quiet(["retie", str(r / "a"), str(r / "b"), "--out", str(r / "retie")])[0] == 0
-    code, out = _quiet(["fit", str(r / "set" / "specimen_00.ply")])
+    code, out = _quiet(["fit", str(r / "set" / "specimen_00.ply"), "--json"])
     assert code == 0
     (r / "fit.json").write_text(out)
     code, out = _quiet(["fit", str(r / "set" / "missing.ply"), "--json"])
@@ -113,7 +113,7 @@ def test_a_flat_fit_gives_null_radius_with_a_reason(tmp_path, capsys):
 
     path = tmp_path / "flat.ply"
     write_ply(path, specimen_scan(0.0, n_points=20_000, seed=9).points * 1e3)
-    assert main(["fit", str(path)]) == 0
+    assert main(["fit", str(path), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["radius_mm"] is None and "flat" in doc["null_reasons"]["/radius_mm"]
     assert _validator("fit").is_valid(doc)
