@@ -234,14 +234,14 @@ def write_check(check, folder) -> dict:
 
 def summary_text(doc: dict, out) -> str:
     dev, env, s = doc["deviation"], doc["envelope"], doc["solver"]
-    lines = [f"airmat inflate: {len(doc['dashes'])} strings, {doc['mesh_vertices']} vertices at "
+    lines = [f"airmat check: {len(doc['dashes'])} strings, {doc['mesh_vertices']} vertices at "
              f"{doc['resolution_mm']:g} mm",
              f"  solver: {'converged' if s['converged'] else 'NOT CONVERGED'} in {s['iterations']} Newton "
              f"iterations, residual {s['residual']:.1e}, {doc['timings_s']['median']:.1f} s",
              *([] if doc.get("start", {}).get("from", "flat") == "flat" else [
                  f"  refined design: its open-loop lengths inflated first ({doc['start']['iterations']} Newton "
                  f"iterations, {doc['start']['seconds']:.1f} s), each run carried on from there, as it was refined"]),
-             f"  deviation from S-hat ({dev.get('surface', 'mid')} face): RMS {dev['rms_mm']:.1f} mm "
+             f"  deviation from Ŝ ({dev.get('surface', 'mid')} face): RMS {dev['rms_mm']:.1f} mm "
              f"({dev['rms_pct_diag']:.2f}% of the diagonal), max {dev['max_mm']:.1f} mm"]
     tt = doc.get("to_target", {})
     if "rms_mm" in tt:

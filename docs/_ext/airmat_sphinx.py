@@ -145,7 +145,11 @@ class AirmatCli(SphinxDirective):
         prog = parser.prog
 
         subs = _subparsers(parser)
-        commands = list(subs[0].choices.items()) if subs else []
+        commands, seen = [], set()
+        for name, sub in (subs[0].choices.items() if subs else ()):   # an alias shares its command's parser
+            if id(sub) not in seen:
+                seen.add(id(sub))
+                commands.append((name, sub))
         helps = {c.dest: c.help for c in subs[0]._choices_actions} if subs else {}
         command_ids = {name: nodes.make_id(f"cli-{prog}-{name}") for name, _ in commands}
 

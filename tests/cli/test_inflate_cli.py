@@ -58,7 +58,7 @@ def test_inflate_writes_files_with_the_fields(tmp_path, capsys, wrote):
     assert "Inflation check" in page and "k1-002-01" in page and "did NOT converge" not in page
     printed = capsys.readouterr().out
     assert wrote(printed, out) == {p.name for p in out.iterdir()}   # every file, no other
-    assert "deviation from S-hat (bottom face)" in printed
+    assert "deviation from Ŝ (bottom face)" in printed
     assert f"'airmat refine {design} --out DIR'" in printed      # open-loop lengths: where to go next
     # top strings only: the named face is the bottom one (it keeps its length); every face for reference
     dev = doc["deviation"]
