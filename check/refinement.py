@@ -91,7 +91,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.check.compare import Deviation, deviation
+from airmat.check.compare import Deviation, deviation, distance_to_target
 from airmat.check.gauss_newton import GaussNewtonResult, gauss_newton
 from airmat.check.inflation_check import KnownRun, design_strings, named_face, open_loop_strings
 from airmat.check.length_map import length_map
@@ -213,6 +213,15 @@ class Refinement(Summarized):
         of ``design`` at this resolution (``known=``) need not inflate again."""
         return tuple(k for k in (self.verification, self.open_loop_run) if k is not None)
 
+    def _to_target(self, dev) -> dict:
+        """``deviation_after_to_target``: the refined face's distance to the user's target S, when the design keeps S."""
+        a = self.design.approx
+        if a.target is None:
+            return {}
+        diag = float(np.linalg.norm(np.ptp(a.xyz, axis=0)))
+        return {"deviation_after_to_target": dev(distance_to_target(self.deviation_after.aligned, a.target,
+                                                                    diagonal=diag))}
+
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
         def dev(d):
@@ -225,7 +234,8 @@ class Refinement(Summarized):
                 "defect_corrections": len(self.corrections), "alpha": float(self.alpha),
                 "surface": self.surface, "lengths_before": self.lengths_before,
                 "deviation_before": dev(self.deviation_before),
-                "deviation_after": dev(self.deviation_after), "dropped": list(self.dropped),
+                "deviation_after": dev(self.deviation_after), **self._to_target(dev),
+                "dropped": list(self.dropped),
                 "flagged": list(self.flagged), "message": self.message,
                 "reparametrization": None if self.reparametrization is None else {
                     "rounds": int(self.reparametrize_rounds), **self.reparametrization.summary_mm(),

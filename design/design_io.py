@@ -64,6 +64,21 @@ def report_dict(report) -> dict:
             "metric": {"face": str(report.metric["face"]), "min_ratio": round(float(report.metric["min_ratio"]), 5)}}
 
 
+def approx_to_target(approx) -> dict:
+    """Ŝ's distance to the user's target S (closest points on S's mesh): RMS, max (mm) and % of Ŝ's diagonal.
+
+    Only while the design is in memory: a design folder keeps Ŝ, not S.
+    """
+    from airmat.design.closest_point import MeshProjector
+
+    t = approx.target
+    dist = MeshProjector(t.vertices, t.faces).closest(approx.xyz).distance
+    rms = float(np.sqrt(np.mean(dist ** 2)))
+    diag = float(np.linalg.norm(np.ptp(approx.xyz, axis=0)))
+    return {"rms_mm": round(rms / MM, 3), "max_mm": round(float(dist.max()) / MM, 3),
+            "rms_pct_diag": round(100.0 * rms / diag, 4)}
+
+
 def _write_samples(path: Path, calibration: CalibrationSource) -> None:
     arrays = dict(delta_m=calibration.delta, d_m=calibration.d, L_m=np.float64(calibration.L))
     if calibration.sigma is not None:
@@ -78,6 +93,8 @@ def document(result: DesignResult) -> dict:
                           report=report_dict(a.report) if a.report is not None else None,
                           parameters=result.params.file_dict(result.params.L), seed=result.seed,
                           name=result.name)
+    if a.target is not None and doc.get("report") is not None:
+        doc["report"]["to_target"] = approx_to_target(a)
     if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
         doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
                              "message": str(a.relax.message)}

@@ -79,6 +79,15 @@ def test_inflate_json_gives_the_distance_to_s_or_a_note(cylinder):
     assert doc["to_target"] == TO_TARGET_NOTE and "to_target" not in doc["deviation"]
 
 
+@pytest.mark.slow
+def test_design_json_gives_s_hats_distance_to_s(cylinder):
+    from airmat.design.design_io import document
+
+    d, _ = cylinder
+    assert document(d)["report"]["to_target"]["rms_mm"] == pytest.approx(_approx_to_s(d).rms * 1e3, abs=1e-3)
+    assert "to_target" not in document(replace(d, approx=replace(d.approx, target=None)))["report"]
+
+
 def test_distance_to_target_refuses_a_wrong_shape():
     from airmat.errors import InputError
     from types import SimpleNamespace
