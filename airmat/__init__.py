@@ -56,6 +56,7 @@ _FACADE = {
     # check and refine
     "check_design": "airmat.check.inflation_check:check",
     "monte_carlo": "airmat.check.inflation_check:monte_carlo",
+    "tolerance": "airmat.check.tolerance:tolerance",
     "refine": "airmat.check.refinement:refine",
     "write_report": "airmat.report.page:write_report",
 }

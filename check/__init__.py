@@ -12,6 +12,8 @@ Public API (SI units: metres, 1/m):
 - :func:`refine` -- the string lengths refined through the inflated equilibrium (adjoint
   Gauss–Newton), a refined DesignResult and its ``refine`` block, tuned by :class:`RefineOptions`
   (``refinement``, ``gauss_newton``, ``adjoint``, ``refine_objective``).
+- :func:`airmat.check.tolerance.tolerance` (``airmat.tolerance``) -- the tolerance to first order: the adjoint Jacobian at the median run times the
+  covariance of the string lengths (:func:`length_covariance`), checked against a few full samples (``tolerance``).
 - :func:`validate_equation3` -- the paper's specimen experiment, simulated (``validation``).
 - :func:`length_map` -- real string length -> simulated rest length: l + 2Δ (:class:`LengthMap`) or
   calibrated on simulated specimens (:class:`CalibratedLengthMap`, cached; ``length_map``, ``calibrated_map``).
@@ -34,4 +36,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "adjoint": ["rest_derivative", "factor_equilibrium", "equilibrium_jacobian", "adjoint_gradient"],
     "refine_objective": ["face_operator", "face_fit"],
     "validation": ["validate_equation3"],
+    "tolerance": ["LinearTolerance", "Validation"],
+    "length_covariance": ["LengthCovariance", "length_covariance"],
 })

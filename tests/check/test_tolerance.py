@@ -1,0 +1,140 @@
+"""airmat.check.tolerance: the linearized tolerance against re-inflations and a Monte-Carlo of the small case."""
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import norm
+
+sys.path.insert(0, str(Path(__file__).parent))
+from refine_case import OFF, RESOLUTION, TRUE_SIM, small_design  # noqa: E402
+
+from airmat.check.compare import deviation  # noqa: E402
+from airmat.check.inflation_check import check, design_strings  # noqa: E402
+from airmat.check.length_covariance import length_covariance  # noqa: E402
+from airmat.check.monte_carlo import draw  # noqa: E402
+from airmat.check.tolerance import RELIABLE_ERROR, tolerance  # noqa: E402
+from airmat.errors import InputError  # noqa: E402
+from airmat.inflation.simulate import inflate_from  # noqa: E402
+
+#: Monte-Carlo samples of the band test (about 0.4 s each on the small case)
+K = 32
+#: the three strings of the small case shortened by OFF: every one taut (a slack string's response has a
+#: kink at its onset, which no first-order model follows); Ŝ is their own inflation, so e₀ = 0
+LENGTHS = TRUE_SIM + OFF
+
+
+@pytest.fixture(scope="module")
+def case():
+    design = small_design(LENGTHS, true_sim=LENGTHS)
+    run = check(design, resolution=RESOLUTION, envelope=False, samples=K, seed=1)
+    return design, run
+
+
+@pytest.fixture(scope="module")
+def linear(case):
+    design, run = case
+    return tolerance(design, run=run, validate=8, seed=2)
+
+
+def test_the_covariance_is_what_the_monte_carlo_draws():
+    """The three sources against the sample covariance of draw()'s lengths (no inflation)."""
+    design = small_design(LENGTHS, true_sim=LENGTHS)
+    cal = design.calibration
+    design = replace(design, calibration=replace(cal, sigma=np.full(cal.n_samples, 0.3)))
+    cov = length_covariance(design)
+    n = 40000
+    dr = draw(design, n, seed=5)
+    sample = np.cov(dr.rest, rowvar=False)
+    # a sample variance's relative standard error is sqrt(2 / n) (0.7 %): 5 of them, and draw() picks the
+    # 200 posterior samples with replacement, so both estimate the covariance over those 200
+    assert np.allclose(np.diag(cov.total), np.diag(sample), rtol=5 * np.sqrt(2 / n))
+    assert np.all(cov.scatter > 0) and cov.sigma_source == "posterior"
+    cut = length_covariance(design, cut_tolerance=0.002)
+    assert np.allclose(cut.cut, 0.002 ** 2 / 3)          # uniform on +-2 mm, l* = l + 2Δ (slope 1)
+    normal = length_covariance(design, cut_tolerance=0.002, cut_distribution="normal")
+    assert np.allclose(normal.cut, 0.002 ** 2)
+
+
+@pytest.mark.slow
+def test_the_jacobian_is_the_limit_of_central_differences(case, linear):
+    """Re-inflations at l* ± h (carried on from the median equilibrium) against A h.
+
+    One string against its neighbours bends the face non-linearly; a central difference's remainder is
+    O(h²), so halving h must cut the error about 4x (checked: at most half), and at h = 0.5 mm it is
+    within 2 %. A common change of all three (the posterior's main mode) is nearly linear.
+    """
+    design, run = case
+    med = run.runs["median"]
+    strings = design_strings(design, "median", lengths=run.lengths)
+
+    def error(dl):
+        faces = [deviation(inflate_from(med.inflation, replace(strings, rest=strings.rest + s * dl)),
+                           design.approx.xyz, design.approx.uv, run.surface).aligned for s in (1, -1)]
+        actual = 0.5 * (faces[0] - faces[1])
+        return np.linalg.norm(actual - linear.jacobian @ dl) / np.linalg.norm(actual)
+
+    direction = np.array([0.0, -1.0, 0.5])
+    coarse, fine = error(1e-3 * direction), error(0.5e-3 * direction)
+    assert fine < 0.02 and fine < 0.5 * coarse, (coarse, fine)
+    assert error(np.full(3, 1e-3)) < 0.02
+
+
+@pytest.mark.slow
+def test_the_linear_95_band_agrees_with_the_monte_carlo(case, linear):
+    """Per-vertex 95 % quantiles of the distance from Ŝ: the model against K full samples.
+
+    The bound is the sampling error of K samples. With e₀ = 0 and the posterior's lengths moving together
+    (correlation > 0.99: one mode), a vertex's distance is |N(0, s²)|: its 95 % quantile 1.96 s has the
+    density 2 φ(1.96) / s there, so the K-sample quantile's relative standard error is
+    sqrt(0.95 · 0.05 / K) / (2 φ(1.96) · 1.96) = 0.17 at K = 32. One mode moves every vertex alike, so
+    the median over vertices is one such error, not an average of many: 3 standard errors, plus the
+    linearization error the validation measured.
+    """
+    design, run = case
+    post = linear.covariance.posterior
+    assert np.min(post / np.sqrt(np.outer(np.diag(post), np.diag(post)))) > 0.99
+    assert np.abs(linear.base).max() < 1e-6       # Ŝ is the median inflation
+    mc = run.monte_carlo
+    rel_se = np.sqrt(0.95 * 0.05 / K) / (2 * norm.pdf(1.96) * 1.96)
+    rel = np.median(np.abs(linear.per_vertex_q[1] / mc.per_vertex_q[1] - 1))
+    assert rel < 3 * rel_se + linear.validation.relative_error, (rel, rel_se)
+    assert linear.reliable and linear.validation.relative_error < RELIABLE_ERROR
+    assert np.all(linear.validation.converged)
+    st, mst = linear.stats(), mc.stats()
+    assert abs(st["rms_median"] / mst["rms_median"] - 1) < 3 * mst["rms_median_se"] / mst["rms_median"] + 0.05
+
+
+@pytest.mark.slow
+def test_the_strings_shares_sum_to_one_and_name_the_strings(linear):
+    assert np.isclose(linear.share.sum(), 1.0)
+    idx, share = linear.sensitive(2)
+    assert len(idx) == 2 and abs(share[0]) >= abs(share[1])
+    assert linear.ids == ("k1-000-01", "k1-001-01", "k1-002-01")
+    assert np.all(linear.band_normal[1] >= linear.band_normal[0]) and linear.normal_sd.max() > 0
+    assert "LinearTolerance" in repr(linear) and "reliable True" in repr(linear)
+
+
+@pytest.mark.slow
+def test_a_huge_cut_tolerance_is_unreliable_and_says_so(case):
+    """±40 mm on 270-290 mm strings: lengthened strings go slack, far outside the first order."""
+    design, run = case
+    result = tolerance(design, run=run, validate=4, cut_tolerance=0.040, seed=3)
+    assert result.reliable is False and result.validation.relative_error > RELIABLE_ERROR
+    assert "UNRELIABLE" in result.message and "--samples" in result.message
+
+
+@pytest.mark.slow
+def test_not_validated_and_bad_input(case):
+    design, run = case
+    quick = tolerance(design, run=run, validate=0, draws=200, tolerance=0.002)
+    assert quick.validation is None and quick.reliable is None and "not validated" in quick.message
+    assert 0.0 <= quick.stats()["p_within"] <= 1.0
+    with pytest.raises(InputError, match="no strings"):
+        tolerance(replace(design, pattern=replace(design.pattern, strings=())), run=run)
+    with pytest.raises(InputError, match="cut_distribution"):
+        tolerance(design, run=run, validate=0, cut_distribution="triangular")
+    with pytest.raises(InputError, match="validate"):
+        tolerance(design, run=run, validate=-1)
