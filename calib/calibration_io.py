@@ -117,13 +117,35 @@ def write_calibration(cal, folder, *, truth: dict | None = None) -> list[Path]:
     return files
 
 
-def summary_text(cal, folder=None) -> str:
-    """A short human summary: parameters with 95% intervals, convergence, where the files are."""
+def _against(ps, scale: float, truth: dict | None, key: str, unit: str, digits: int) -> str:
+    """``"; truth 18.00 mm, median - truth -0.12, inside the 95% interval"`` (empty without that truth)."""
+    if truth is None or truth.get(key) is None:
+        return ""
+    t = float(truth[key])
+    inside = ps.lo95 * scale <= t <= ps.hi95 * scale
+    return (f";  truth {t:.{digits}f} {unit}, median - truth {ps.median * scale - t:+.{digits}f}, "
+            f"{'inside' if inside else 'OUTSIDE'} the 95% interval")
+
+
+def summary_text(cal, folder=None, *, truth: dict | None = None) -> str:
+    """A short human summary: parameters with 95% intervals (beside the truth when given), convergence,
+    where the files are.
+
+    Parameters
+    ----------
+    cal : Calibration
+    folder : path, optional
+        Where the files were written.
+    truth : dict, optional
+        A synthetic set's truth (``delta_mm``, ``d_mm``, optionally ``sigma_per_m``).
+    """
     p = cal.posterior
     lines = [f"Delta = {p.delta.median * 1e3:.2f} mm  (95%: {p.delta.lo95 * 1e3:.2f} .. "
-             f"{p.delta.hi95 * 1e3:.2f})",
-             f"d     = {p.d.median * 1e3:.2f} mm  (95%: {p.d.lo95 * 1e3:.2f} .. {p.d.hi95 * 1e3:.2f})",
-             f"sigma = {p.sigma.median:.3f} 1/m  (95%: {p.sigma.lo95:.3f} .. {p.sigma.hi95:.3f})",
+             f"{p.delta.hi95 * 1e3:.2f}){_against(p.delta, 1e3, truth, 'delta_mm', 'mm', 2)}",
+             f"d     = {p.d.median * 1e3:.2f} mm  (95%: {p.d.lo95 * 1e3:.2f} .. {p.d.hi95 * 1e3:.2f})"
+             f"{_against(p.d, 1e3, truth, 'd_mm', 'mm', 2)}",
+             f"sigma = {p.sigma.median:.3f} 1/m  (95%: {p.sigma.lo95:.3f} .. {p.sigma.hi95:.3f})"
+             f"{_against(p.sigma, 1.0, truth, 'sigma_per_m', '1/m', 3)}",
              f"MCMC: {p.message}; acceptance {p.acceptance_fraction:.2f}",
              f"{len(cal.specimens)} specimens, L = {cal.curve.L * 1e3:g} mm"]
     if folder is not None:

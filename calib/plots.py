@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from airmat import palette
 from airmat.figures import new_figure, save_png
 
 __all__ = ["curve_figure", "corner_figure", "plot_curve", "plot_corner"]
@@ -36,22 +37,22 @@ def curve_figure(cal, *, truth: dict | None = None):
     """
     from airmat.calib.model import kappa1
 
-    c, p = cal.curve, cal.posterior
+    c, p, colour = cal.curve, cal.posterior, palette.CALIBRATION
     fig = new_figure((6.4, 4.4), layout="constrained")
     ax = fig.add_subplot()
-    ax.fill_between(c.l_over_L, c.lo95, c.hi95, color="C0", alpha=0.18, lw=0, label="95% band")
-    ax.fill_between(c.l_over_L, c.lo68, c.hi68, color="C0", alpha=0.35, lw=0, label="68% band")
-    ax.plot(c.l_over_L, c.median, color="C0", lw=1.8,
+    ax.fill_between(c.l_over_L, c.lo95, c.hi95, color=colour["band"], alpha=0.18, lw=0, label="95% band")
+    ax.fill_between(c.l_over_L, c.lo68, c.hi68, color=colour["band"], alpha=0.35, lw=0, label="68% band")
+    ax.plot(c.l_over_L, c.median, color=colour["median"], lw=1.8,
             label=f"posterior median (Δ={p.delta.median * 1e3:.1f} mm, d={p.d.median * 1e3:.1f} mm)")
     if truth is not None:
         k = kappa1(c.l_over_L * c.L, c.L, truth["delta_mm"] * 1e-3, truth["d_mm"] * 1e-3)
-        ax.plot(c.l_over_L, k, "k--", lw=1.0,
+        ax.plot(c.l_over_L, k, "--", color=colour["truth"], lw=1.0,
                 label=f"truth (Δ={truth['delta_mm']:g} mm, d={truth['d_mm']:g} mm)")
     same_L = np.array([np.isclose(s.L, c.L) for s in cal.specimens])
     x = np.array([s.l / s.L for s in cal.specimens])
     y = np.array([s.kappa for s in cal.specimens])
     err = 2.0 * np.hypot([s.kappa_se for s in cal.specimens], p.sigma.median)
-    ax.errorbar(x[same_L], y[same_L], yerr=err[same_L], fmt="o", color="C3", ms=4, capsize=2,
+    ax.errorbar(x[same_L], y[same_L], yerr=err[same_L], fmt="o", color=colour["specimens"], ms=4, capsize=2,
                 label="measured (±2 sd incl. scatter σ)")
     ax.set_xlabel("string length ratio l / L  (L = %g mm)" % (c.L * 1e3))
     ax.set_ylabel("curvature κ₁  (1/m)")

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from airmat import palette
 from airmat.atomic import atomic_write_bytes, atomic_write_text
 from airmat.figures import new_figure, save_png
 from airmat.json_doc import dumps, finish
@@ -151,6 +152,14 @@ def check_dict(check) -> dict:
     return finish(doc)
 
 
+def _draw_strings_by_face(ax, strings) -> None:
+    """The strings' chords on Ω (mm) in their face's colour and line style, over a white halo."""
+    for s in strings:
+        a, b = s.dash.a * M_TO_MM, s.dash.b * M_TO_MM
+        ax.plot([a[0], b[0]], [a[1], b[1]], color=palette.HALO, lw=3.2, solid_capstyle="round")
+        ax.plot([a[0], b[0]], [a[1], b[1]], color=palette.FACES[s.side], lw=1.6, ls=palette.FACE_DASH[s.side][1])
+
+
 def deviation_figure(check):
     """Ŝ on Ω coloured by the deviation of the median inflation, and realized against target κ per dash.
 
@@ -170,40 +179,42 @@ def deviation_figure(check):
     axes = fig.subplots(1, 3 if mc is not None else 2,
                         gridspec_kw={"width_ratios": [1.25, 1, 1.25] if mc is not None else [1.25, 1]})
     ax, ax2 = axes[0], axes[1]
-    tpc = ax.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces,
-                       med.deviation.per_vertex * M_TO_MM, shading="gouraud", cmap="viridis")
-    fig.colorbar(tpc, ax=ax, label="deviation from Ŝ (mm)")
-    for s in d.pattern.strings:
-        a, b, top = s.dash.a, s.dash.b, s.side == "top"
-        ax.plot([a[0] * M_TO_MM, b[0] * M_TO_MM], [a[1] * M_TO_MM, b[1] * M_TO_MM],
-                color="white" if top else "red", lw=1.5, ls="-" if top else ":")
+    tpc = ax.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces, med.deviation.per_vertex * M_TO_MM,
+                       shading="gouraud", cmap=palette.DEVIATION.matplotlib)
+    fig.colorbar(tpc, ax=ax, label=f"deviation of the {check.surface} face from Ŝ (mm)")
+    _draw_strings_by_face(ax, d.pattern.strings)
     ax.set_aspect("equal")
     ax.set_xlabel("u (mm)")
     ax.set_ylabel("v (mm)")
-    ax.set_title(f"Ŝ coloured by the deviation of the inflated {check.surface} face\n"
-                 "(on the mattress; strings: white top, red dotted bottom)", fontsize=9)
+    dev = med.deviation
+    ax.set_title(f"deviation of the inflated {check.surface} face from Ŝ, median strings: RMS "
+                 f"{dev.rms * M_TO_MM:.1f} mm, max {dev.max * M_TO_MM:.1f} mm\n(on the mattress; strings: "
+                 "top face solid, bottom face dashed)", fontsize=9)
     ax2.axline((0, 0), slope=1, color="grey", lw=0.8)
-    for key, mark in (("median", "o"), ("lo95", "v"), ("hi95", "^")):
+    for key in ("median", "lo95", "hi95"):
         if key in check.runs:
-            ax2.plot(kappa, check.runs[key].kappa_realized, mark, ms=4, label=f"strings at {key}")
+            ax2.plot(kappa, check.runs[key].kappa_realized, palette.RUN_MARKERS[key].matplotlib, ms=4,
+                     color=palette.RUNS[key], label=f"strings at {key}")
     ax2.set_xlabel("target κ of the dash (1/m)")
     ax2.set_ylabel(f"realized κ on the {check.surface} face (1/m)")
     ax2.legend(fontsize=8)
     ax2.set_title("curvature along each dash", fontsize=9)
-    env = " · ".join(f"{k}: RMS {r.deviation.rms * M_TO_MM:.1f} mm, max {r.deviation.max * M_TO_MM:.1f} mm"
+    env = " · ".join(f"{k} {r.deviation.rms * M_TO_MM:.1f} ({r.deviation.max * M_TO_MM:.1f})"
                      for k, r in check.runs.items())
     if mc is not None:
         ax3 = axes[2]
         band = ax3.tripcolor(uv[:, 0] * M_TO_MM, uv[:, 1] * M_TO_MM, faces, mc.per_vertex_q[1] * M_TO_MM,
-                             shading="gouraud", cmap="magma")
-        fig.colorbar(band, ax=ax3, label="95 % quantile of the deviation (mm)")
+                             shading="gouraud", cmap=palette.BAND.matplotlib)
+        fig.colorbar(band, ax=ax3, label=f"95 % quantile of the {check.surface} face's deviation (mm)")
         ax3.set_aspect("equal")
         ax3.set_xlabel("u (mm)")
         st = mc.stats()
-        ax3.set_title(f"95 % band over {mc.rms.size} Monte-Carlo samples\n(RMS median "
+        ax3.set_title(f"95 % band of the {check.surface} face over {mc.rms.size} Monte-Carlo samples\n"
+                      f"(RMS median "
                       f"{st['rms_median'] * M_TO_MM:.1f}, 95th percentile {st['rms_p95'] * M_TO_MM:.1f} mm)",
                       fontsize=9)
-    fig.suptitle(f"airmat inflate: {env}", fontsize=10)
+    fig.suptitle(f"airmat inflate: the {check.surface} face against Ŝ, RMS (max) in mm with the strings at {env}",
+                 fontsize=10)
     fig.tight_layout()
     return fig
 

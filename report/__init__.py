@@ -6,6 +6,9 @@ Public API:
   and/or a ``DesignCheck`` (``page``), plotly.js inlined: it opens offline.
 - :func:`calibration_part`, :func:`design_part`, :func:`check_part` -- the sections (``calibration``,
   ``design``, ``check``); :func:`html_table` -- tables, sortable by a click (``table``).
+- :func:`check_verdict`, :func:`design_verdict`, :func:`calibration_verdict` -- the card at the top of
+  the page: lands within :data:`WITHIN_PCT_DIAG` % of the diagonal or not, the tolerance, the next
+  command (``verdict``).
 """
 
 import airmat  # noqa: F401  (sets the BLAS thread defaults before numpy loads)
@@ -19,4 +22,5 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "check": ["check_part"],
     "table": ["html_table"],
     "mesh": ["display_grid"],
+    "verdict": ["Verdict", "check_verdict", "design_verdict", "calibration_verdict", "WITHIN_PCT_DIAG"],
 })

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from airmat import palette
 from airmat.units import M_TO_MM
 from airmat.design.constructibility import edge_sigma
 from airmat.report.mesh import display_grid, mesh3d_trace
@@ -17,7 +18,6 @@ __all__ = ["pattern_figure", "surface_figure", "vertex_sigma", "cutting_rows", "
 
 CUTTING_COLUMNS = ("id", "face", "family", "l median (mm)", "l lo95 (mm)", "l hi95 (mm)", "κ (1/m)", "L (mm)",
                    "a u (mm)", "a v (mm)", "b u (mm)", "b v (mm)", "flags")
-_FAMILY_COLOUR = {"k1": "rgb(214,39,40)", "k2": "rgb(31,119,180)"}
 
 
 def _polyline_trace(strings, name: str, colour: str, axes: str) -> dict:
@@ -37,7 +37,7 @@ def _polyline_trace(strings, name: str, colour: str, axes: str) -> dict:
 
 
 def pattern_figure(result) -> dict:
-    """The strings on Ω, top face left and bottom face right, κ₁ red and κ₂ blue; hover: id and lengths.
+    """The strings on Ω, top face left and bottom face right, coloured by family (κ₁, κ₂: :data:`airmat.palette.FAMILIES`).
 
     Parameters
     ----------
@@ -55,7 +55,7 @@ def pattern_figure(result) -> dict:
         for fam in ("k1", "k2"):
             sel = [s for s in result.pattern.strings if s.side == side and s.dash.family == fam]
             if sel:
-                data.append(_polyline_trace(sel, f"{side} {fam} ({len(sel)})", _FAMILY_COLOUR[fam], axes))
+                data.append(_polyline_trace(sel, f"{side} {fam} ({len(sel)})", palette.FAMILIES[fam], axes))
         outline = {"type": "scatter", "mode": "lines", "x": [0, w, w, 0, 0], "y": [0, 0, h, h, 0],
                    "line": {"color": "grey", "width": 1}, "hoverinfo": "skip", "showlegend": False}
         if axes == "2":
@@ -84,7 +84,7 @@ def surface_figure(result) -> dict:
     a = result.approx
     sigma = vertex_sigma(a.xyz, a.uv, a.faces)
     keep, faces = display_grid(a.uv, a.faces)
-    trace = mesh3d_trace(a.xyz[keep], faces, intensity=sigma[keep], name="Ŝ", colorscale="RdBu",
+    trace = mesh3d_trace(a.xyz[keep], faces, intensity=sigma[keep], name="Ŝ", colorscale=palette.SIGMA.plotly,
                          colorbar_title="σ", hover="σ = %{intensity:.4f}")
     trace.update(cmid=1.0)
     layout = {"scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
@@ -142,7 +142,8 @@ def _refine_section(b: dict) -> str:
             f"<p>The lengths were adjusted together so that the inflated {escape(b['surface'])} face lands on "
             f"Ŝ, at {mesh}: {b['iterations']} Gauss–Newton iterations, {b['seconds']:.1f} s; "
             f"{escape(b['message'])}.</p>\n"
-            + html_table(["the named face against Ŝ", "RMS (mm)", "% of the diagonal", "max (mm)"], rows))
+            + html_table([f"the {b['surface']} face against Ŝ", "RMS (mm)", "% of the diagonal", "max (mm)"],
+                         rows, table_id="refine-deviation"))
     r = b.get("reparametrization")
     if r is not None:
         text += (f"<p>Ŝ's points moved {r['moved_rms_mm']:.1f} mm RMS along it (at most {r['moved_max_mm']:.1f} mm; "

@@ -12,7 +12,7 @@ import numpy as np
 
 from airmat.units import M_TO_MM
 
-__all__ = ["display_grid", "mesh3d_trace", "MAX_DISPLAY_VERTICES"]
+__all__ = ["display_grid", "grid_image", "mesh3d_trace", "wireframe_trace", "MAX_DISPLAY_VERTICES"]
 
 #: vertex budget of one displayed mesh (about 0.5 MB of JSON each)
 MAX_DISPLAY_VERTICES = 12_000
@@ -107,3 +107,77 @@ def mesh3d_trace(xyz, faces, *, intensity=None, name: str, color: str | None = N
     else:
         trace.update(color=color or "lightgrey", hoverinfo="skip")
     return trace
+
+
+def grid_image(uv, values, *, max_vertices: int = MAX_DISPLAY_VERTICES):
+    """Values on a row-major regular grid on Ω as an image: its axes (mm) and a (rows, columns) array.
+
+    Parameters
+    ----------
+    uv : ndarray of shape (n, 2)
+        Ω coordinates (m) of the grid's vertices.
+    values : ndarray of shape (n,)
+    max_vertices : int
+        Keep every s-th grid line (and the last) to stay under about this many pixels.
+
+    Returns
+    -------
+    (u_mm, v_mm, image) or None
+        ``image[j, i]`` is the value at ``(u_mm[i], v_mm[j])``; None when ``uv`` is not a regular grid.
+
+    Examples
+    --------
+    >>> u, v = np.meshgrid(np.linspace(0, 0.2, 3), np.linspace(0, 0.1, 2))
+    >>> uv = np.column_stack([u.ravel(), v.ravel()])
+    >>> grid_image(uv, np.arange(6.0))[2]
+    array([[0., 1., 2.],
+           [3., 4., 5.]])
+    """
+    uv, values = np.asarray(uv, float), np.asarray(values, float)
+    shape = _grid_shape(uv)
+    if shape is None:
+        return None
+    nu, nv = shape
+    step = max(1, int(np.ceil(np.sqrt(len(uv) / max_vertices))))
+    iu, jv = _keep(nu, step), _keep(nv, step)
+    g = uv.reshape(nv, nu, 2)
+    return g[0, iu, 0] * M_TO_MM, g[jv, 0, 1] * M_TO_MM, values.reshape(nv, nu)[np.ix_(jv, iu)]
+
+
+def wireframe_trace(xyz, uv, faces, *, name: str, color: str, lines: int = 24, width: float = 1.5) -> dict:
+    """A plotly ``scatter3d`` wireframe of a mesh (mm): about ``lines`` grid lines each way on a regular grid,
+    else every edge of ``faces``.
+
+    A wireframe shows Ŝ beside an opaque surface without the flicker of two coincident
+    translucent surfaces (z-fighting).
+
+    Parameters
+    ----------
+    xyz : ndarray of shape (n, 3)
+        Vertices (m).
+    uv : ndarray of shape (n, 2)
+        Their Ω coordinates (m).
+    faces : ndarray of shape (m, 3)
+    name, color : str
+    lines : int
+        Grid lines along each direction on a regular grid.
+    width : float
+        Line width (px).
+    """
+    p = np.round(np.asarray(xyz, float) * M_TO_MM, 1)
+    shape = _grid_shape(np.asarray(uv, float))
+    if shape is not None:
+        nu, nv = shape
+        g = p.reshape(nv, nu, 3)
+        rows = [g[j] for j in _keep(nv, max(1, nv // lines))]
+        cols = [g[:, i] for i in _keep(nu, max(1, nu // lines))]
+        polylines = rows + cols
+    else:
+        f = np.asarray(faces, np.int64)
+        edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+        polylines = list(p[edges])
+    gap = np.full((1, 3), np.nan)
+    pts = np.concatenate([np.concatenate([q, gap]) for q in polylines]) if polylines else np.zeros((0, 3))
+    coords = {k: [None if np.isnan(c) else float(c) for c in pts[:, n]] for n, k in enumerate("xyz")}
+    return {"type": "scatter3d", "mode": "lines", "name": name, **coords, "hoverinfo": "skip",
+            "line": {"color": color, "width": width}, "showlegend": True}

@@ -30,6 +30,12 @@ h1 { font-size: 1.5em; } h2 { border-bottom: 2px solid #ccc; margin-top: 2em; } 
 .banner.warn { background: #fff3cd; border: 1px solid #e0b000; }
 .banner.bad { background: #fde2e1; border: 1px solid #c0392b; color: #8b1a10; }
 .banner.ok { background: #e3f5e1; border: 1px solid #2e8b57; }
+.verdict { padding: .6em 1.2em; margin: 1em 0; border-radius: 6px; border: 2px solid; }
+.verdict.ok { background: #e3f5e1; border-color: #2e8b57; }
+.verdict.warn { background: #fff3cd; border-color: #e0b000; }
+.verdict.bad { background: #fde2e1; border-color: #c0392b; }
+.verdict .headline { font-size: 1.15em; font-weight: bold; } .verdict ul { margin: .3em 0; }
+.verdict code { background: #fff; padding: .1em .4em; border: 1px solid #ccc; border-radius: 3px; }
 table { border-collapse: collapse; margin: .5em 0; font-size: .9em; }
 th, td { border: 1px solid #ccc; padding: .2em .6em; text-align: right; }
 th { background: #f2f2f2; } td:first-child, th:first-child { text-align: left; }
@@ -48,8 +54,11 @@ def plotly_js() -> str:
 
 
 def report_html(*, calibration=None, design=None, check=None, summary: str | None = None,
-                title: str = "airmat report") -> str:
+                title: str = "airmat report", truth: dict | None = None) -> str:
     """The whole page for the objects given (any subset; the check brings its design if none is given).
+
+    A verdict card opens the page (:mod:`airmat.report.verdict`): the check's when there is one,
+    else the design's, else the calibration's.
 
     Parameters
     ----------
@@ -59,6 +68,9 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
     summary : str, optional
         Plain text shown first (the demo's summary).
     title : str
+    truth : dict, optional
+        The truth of a synthetic calibration set (``delta_mm``, ``d_mm``, optionally ``sigma_per_m``),
+        shown beside the calibration's posterior.
 
     Returns
     -------
@@ -71,15 +83,20 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
     # each part imports its own stage's packages: a calibration report loads no design code
     if calibration is not None:
         from airmat.report.calibration import calibration_part
-        parts.append(calibration_part(calibration))
+        parts.append(calibration_part(calibration, truth=truth))
     if design is not None:
         from airmat.report.design import design_part
         parts.append(design_part(design))
     if check is not None:
         from airmat.report.check import check_part
         parts.append(check_part(check, with_design_banner=design is None))
+    from airmat.report.verdict import calibration_verdict, check_verdict, design_verdict, verdict_html
+
+    card = (check_verdict(check) if check is not None else design_verdict(design) if design is not None
+            else calibration_verdict(calibration))
     banners = [b for p in parts for b in p.banners]
-    head = "".join(f'<div class="banner {k}">{escape(t)}</div>\n' for k, t in dict.fromkeys(banners))
+    see = (("check-map", f"Where the inflated {check.surface} face misses Ŝ: the map on the mattress"),) if check else ()
+    head = verdict_html(card, see=see) + "".join(f'<div class="banner {k}">{escape(t)}</div>\n' for k, t in dict.fromkeys(banners))
     if summary:
         head += f"<h2>Summary</h2>\n<pre>{escape(summary)}</pre>\n"
     body = "".join(f"<h2>{escape(p.title)}</h2>\n{p.body}\n" for p in parts)

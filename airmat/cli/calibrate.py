@@ -26,7 +26,8 @@ def add_parser(sub, parents):
     p.add_argument("--max-steps", type=int, default=4000,
                    help="cap on the chain length in steps (default 4000)")
     p.add_argument("--truth", metavar="JSON", default=None,
-                   help="truth.json of a synthetic set: marks the true values on the plots")
+                   help="truth.json of a synthetic set: the true values beside the posterior (report.html, "
+                        "the summary) and on the plots")
     p.set_defaults(func=run)
 
 
@@ -66,8 +67,8 @@ def run(args) -> int:
         write_calibration(cal, tmp, truth=truth)
         plot_curve(cal, tmp / "curve.png", truth=truth)
         plot_corner(cal.posterior, tmp / "corner.png", truths=truth)
-        write_report(tmp, calibration=cal, title=f"airmat calibrate: {args.manifest}")
-    print(summary_text(cal, args.out))
+        write_report(tmp, calibration=cal, truth=truth, title=f"airmat calibrate: {args.manifest}")
+    print(summary_text(cal, args.out, truth=truth))
     return not_converged("calibrate", calibration_not_converged(cal))
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from airmat import palette
 from airmat.figures import new_figure, save_png
 from airmat.units import M_TO_MM
 
@@ -202,7 +203,7 @@ def _surface_axes(fig, ax, cax, xyz, uv, faces, report):
     p = np.asarray(xyz) * M_TO_MM
     lo, hi = sigma_limits(sigma, report)
     norm = colors.Normalize(lo, hi)
-    cmap = colormaps["coolwarm"]
+    cmap = colormaps[palette.SIGMA.matplotlib]
     coll = Poly3DCollection(p[np.asarray(faces)], facecolors=cmap(norm(sigma)), edgecolors="none",
                             linewidths=0.0, antialiased=False)
     ax.add_collection3d(coll)

@@ -8,7 +8,7 @@ import numpy as np
 from airmat.design.mattress import Mattress, triangulate_mattress
 from airmat.report.page import REPORT_NAME, report_html, write_report
 
-PLOTS = ("calibration-curve", "design-pattern", "design-surface", "check-overlay", "check-curvature")
+PLOTS = ("calibration-curve", "design-pattern", "design-surface", "check-map", "check-overlay", "check-curvature")
 
 
 def network_references(html: str) -> list:
@@ -81,9 +81,11 @@ def test_a_large_mattress_stays_under_10_mb(run_objects):
                                     runs={k: dataclasses.replace(r, deviation=dev) for k, r in checked.runs.items()})
     html = report_html(design=big, check=big_check)
     assert len(html.encode("utf-8")) < 10e6
-    # the 3D traces hold the decimated grid, not all 42k vertices
+    # the 3D traces (Ŝ, the inflated face) and the map hold the decimated grid, not all 42k vertices
     n_x = [len(m.group(1).split(",")) for m in re.finditer(r'"type":"mesh3d","name":"[^"]*","x":\[([^\]]*)\]', html)]
-    assert len(n_x) == 3 and max(n_x) <= 12_000
+    assert len(n_x) == 2 and max(n_x) <= 12_000
+    [z] = re.findall(r'"type":"heatmap".*?"z":(\[\[.*?\]\])', html)
+    assert z.count("[") - 1 <= 12_000 ** 0.5 + 2
 
 
 class _Dev:
@@ -122,14 +124,14 @@ def test_the_monte_carlo_band_and_its_statistics_are_on_the_page(run_objects):
     keep, _ = display_grid(result.approx.uv, result.approx.faces)
     np.testing.assert_allclose(trace["intensity"], mc.per_vertex_q[1][keep] * 1000, atol=0.01)
     assert len(trace["x"]) == len(keep)
-    assert "95 % quantile of deviation (mm)" in html
+    assert f"95 % quantile of the {checked.surface} face's deviation (mm)" in html
     # the statistics table: samples, seed, RMS median / p95 with standard errors, P(RMS <= T)
     st = mc.stats()
     stats = html[html.index('id="monte-carlo-stats"'):].split("</table>")[0]
     assert "<td>samples</td><td>40</td>" in stats and "<td>seed</td><td>3</td>" in stats
     assert f"{st['rms_median'] * 1000:.2f} ± {st['rms_median_se'] * 1000:.2f}" in stats
     assert f"{st['rms_p95'] * 1000:.2f} ± {st['rms_p95_se'] * 1000:.2f}" in stats
-    assert f"P(RMS ≤ 11 mm)</td><td>{st['p_within']:.3f} ± {st['p_within_se']:.3f}" in stats
+    assert f"P(RMS of the {checked.surface} face ≤ 11 mm)</td><td>{st['p_within']:.3f} ± {st['p_within_se']:.3f}" in stats
     # the ten most sensitive strings, string 5 first
     strings = html[html.index('id="monte-carlo-strings"'):].split("</table>")[0]
     assert strings.count("<tr>") == 1 + 10
