@@ -43,7 +43,8 @@ class PrincipalCurvature:
     Attributes
     ----------
     kappa : ndarray of shape (n, 2)
-        Signed principal curvatures (1/m), column 0 the larger magnitude (family k1).
+        Signed principal curvatures (1/m), column 0 the larger magnitude (the
+        families on Ω are named by airmat.design.transfer.family_order).
     directions : ndarray of shape (n, 2, 3)
         Unit principal directions in space (lines: their sign means nothing).
     normal : ndarray of shape (n, 3)

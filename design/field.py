@@ -8,7 +8,11 @@ tracer, string lengths) consumes it. Everything is in SI: metres on Ω,
 
 Conventions (see CONTRIBUTING.md): curvatures are signed against the top
 normal (κ > 0 bends away from it, the string goes on the bottom face);
-family 0 (``k1``) is the principal curvature of larger magnitude;
+family 0 (``k1``) is the algebraically larger principal curvature when the
+design bends mostly positively, else the smaller
+(airmat.design.transfer.family_order): on a saddle each family has one sign
+and keeps to one face; where both curvatures have the design's main sign it
+is the curvature of larger magnitude;
 directions are *lines* on Ω (the sign of a direction vector means nothing),
 so they are interpolated in the doubled-angle representation.
 """
@@ -38,12 +42,12 @@ class MattressField:
         Sample positions on Ω (m), e.g. the vertices of Ω's triangulation.
     kappa : ndarray of shape (n, 2)
         Signed principal curvatures (1/m) at ``uv``: column 0 the family
-        ``k1`` (larger magnitude), column 1 ``k2``.
+        ``k1`` (airmat.design.transfer.family_order), column 1 ``k2``.
     direction : ndarray of shape (n, 2, 2)
         ``direction[:, i]`` is a unit vector on Ω along the principal
         direction of family i (a line: its sign is arbitrary).
     weight : ndarray of shape (n,)
-        Reliability of the directions in [0, 1] (the anisotropy ||κ1| - |κ2||
+        Reliability of the directions in [0, 1] (the anisotropy |κ1 - κ2|
         normalised); near 0 at umbilics, where directions mean nothing.
     """
 

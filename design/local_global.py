@@ -1,4 +1,4 @@
-"""The U_A solver of the relaxation (paper §3.2, Eq. 4): a local-global iteration with Anderson acceleration.
+"""U_A's data and its local-global solver (paper §3.2, Eq. 4), with Anderson acceleration.
 
 U_A = Σ_edges ½ k_A1 (ε − ε0)² + Σ_vertices ½ k_A2 ‖x − x_closest‖² + Σ_vertices ½ k_A3 ‖L x‖²
 (airmat.design.relax says what each term stands for and where the iteration starts).
@@ -7,7 +7,11 @@ projects each edge onto its rest length and each vertex onto S (one BVH query
 for all vertices), the global step solves one linear system whose matrix
 ``k_A1 AᵀA + k_A2 I + k_A3 LᵀL`` never changes, so it is factorised once.
 Anderson acceleration (airmat.design.anderson) speeds it up; an accelerated step
-that raises U_A is replaced by the plain step, so U_A never increases.
+that raises U_A is replaced by the plain step, so U_A never increases. Each
+iteration is cheap, but it holds every vertex to its last closest point in all
+directions, so where Ω must slide along S (a target far from developable) it
+crawls: the relaxation uses it for the coarse grids and the placement's
+scoring, and projected Newton (airmat.design.ua_newton) for the fine mesh.
 
 Stopping rule: the largest unbalanced force on a vertex, |∂U_A/∂x_i|, below
 ``tol`` × k_A1 × h (h the mean edge length): the pull of one edge strained by

@@ -7,9 +7,13 @@ The mesh M (Ω's triangulation) starts flat on S and minimises
 (A1: edges keep their Ω length ε0; A2: vertices move to their closest point
 on S, where S is continued across its rim by the rim faces' tangent planes,
 airmat.design.closest_point.MeshProjector.closest_extended; A3: vertices move toward their neighbours' average, with the cotangent
-weights of flat Ω, so that flat Ω is a rest state of A3). The solver, its
-stopping rule and its resolution-independent weights are airmat.design.local_global
-(a local-global, projective-dynamics iteration with Anderson acceleration);
+weights of flat Ω, so that flat Ω is a rest state of A3). The fine mesh is
+solved by projected Newton (airmat.design.ua_newton) with Ω's place on S held:
+U_A does not fix where Ω lies on a target larger than it, and its minimum over
+that slide is on S's flattest part or off its rim (Ω on a symmetric saddle
+slides 0.3 m off it), not the design that was placed. The coarse grids use the
+local-global iteration (airmat.design.local_global, which also holds the problem's
+data, its stopping rule and its resolution-independent weights);
 this module chooses where it starts and reports Ŝ.
 Wrapping a fine flat mesh around a strongly curved S in one go can crumple
 it, so coarser grids of Ω are solved first, each starting the next.
@@ -39,14 +43,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from airmat.errors import ConvergenceError
+from airmat.errors import ConvergenceError, InputError
 from airmat.geometry.topology import mesh_edges
 from airmat.progress import residual_progress
 from airmat.design.closest_point import MeshProjector
 from airmat.design.local_global import REFERENCE_SPACING, STALL_WINDOW, UAProblem, iterate, umbrella_operator
 from airmat.design.placement import apply_placement, candidate_placements, placement_matrix
+from airmat.design.ua_newton import newton
 
-__all__ = ["RelaxResult", "relax_to_target", "relax_from", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING"]
+__all__ = ["RelaxResult", "relax_to_target", "relax_from", "mesh_edges", "umbrella_operator", "REFERENCE_SPACING",
+           "SOLVERS"]
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +64,8 @@ PLACEMENT_ITER = 100
 PLACEMENT_MARGIN = 0.01
 #: a vertex further beyond S's rim than this (in mean edge lengths) is off S
 OFF_TARGET = 0.1
+#: solvers of the fine mesh: projected Newton (airmat.design.ua_newton), local-global (airmat.design.local_global)
+SOLVERS = ("newton", "local-global")
 
 
 @dataclass(frozen=True)
@@ -103,7 +111,7 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
                     k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7, max_iter: int = 1000,
                     anderson: int = 5, levels: int | None = None,
                     progress: bool = True, strict: bool = False,
-                    projector: MeshProjector | None = None) -> RelaxResult:
+                    projector: MeshProjector | None = None, solver: str = "newton") -> RelaxResult:
     """Relax Ω's mesh onto the target S by minimising U_A (Equation 4).
 
     Parameters
@@ -153,6 +161,12 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
         Raise ConvergenceError instead of returning unconverged.
     projector : airmat.design.closest_point.MeshProjector, optional
         A BVH over the target to reuse.
+    solver : {"newton", "local-global"}, default "newton"
+        The fine mesh's solver: projected Newton with Ω's place on S held
+        (airmat.design.ua_newton; ``max_iter`` counts Newton iterations), or the
+        Anderson-accelerated local-global iteration (airmat.design.local_global), which
+        lets Ω slide along S and crawls where the target is far from developable. The
+        coarse grids and the placement's scoring use the local-global iteration.
 
     Returns
     -------
@@ -164,6 +178,8 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
         When the iteration diverges (non-finite positions), or with ``strict``
         when it does not converge in ``max_iter`` iterations.
     """
+    if solver not in SOLVERS:
+        raise InputError(f"unknown U_A solver {solver!r}: choose one of {', '.join(SOLVERS)}", solver=solver)
     uv = np.asarray(uv, dtype=float)
     faces = np.asarray(faces, dtype=np.int64)
     lo = uv.min(axis=0)
@@ -184,18 +200,14 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
         x0 = _coarse_start(uv - lo, mat, projector, spacing=spacing, levels=levels, k=(k_a1, k_a2, k_a3),
                            stall=stall, max_iter=max_iter, anderson=anderson, settled=settled)
     with residual_progress(tol, desc="relax Ŝ") as bar:
-        x, it, status, residual, history = iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter,
-                                                   window=anderson, bar=bar if progress else None)
+        x, it, status, residual, history = _solve(prob, x0, solver=solver, tol=tol, stall=stall,
+                                                  max_iter=max_iter, anderson=anderson,
+                                                  bar=bar if progress else None)
     converged = status != "max_iter"
     closest = projector.closest(x)
     energy = prob.energy(x, prob.project(x))
     off_target = np.where(closest.on_rim, closest.distance, 0.0)
-    msg = {"force": f"converged in {it} iterations (largest force {residual:.2g} k_A1·h)",
-           "stall": f"converged in {it} iterations: U_A stationary (changed < {stall:g} in "
-                    f"{STALL_WINDOW} iterations) with the largest force {residual:.2g} k_A1·h above "
-                    f"tol {tol:g} (a coarse target mesh or folds in Ŝ keep it from 0)",
-           "max_iter": f"not converged after {it} iterations (largest force {residual:.2g} k_A1·h, "
-                       f"tol {tol:g})"}[status]
+    msg = _message(status, it, residual, tol=tol, stall=stall, solver=solver)
     log.info("U_A relaxation %s, %.2f s; distance to S mean %.2f mm, max %.2f mm (%d of %d vertices "
              "beyond S's rim)", msg, time.perf_counter() - t0, 1e3 * closest.distance.mean(),
              1e3 * closest.distance.max(), int(np.count_nonzero(off_target > OFF_TARGET * prob.h)), len(x))
@@ -211,7 +223,7 @@ def relax_to_target(uv, faces, target, *, placement=None, k_a1: float = 1.0, k_a
 
 def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: float = 1.0, k_a2: float = 0.2,
                k_a3: float = 0.02, tol: float = 1e-4, stall: float = 1e-7, max_iter: int = 1000,
-               anderson: int = 5):
+               anderson: int = 5, solver: str = "newton"):
     """Minimise U_A from ``x0`` on the fine mesh only, optionally with other A1 rest lengths.
 
     The building block of a relaxation in another metric (airmat.design.face_metric):
@@ -227,8 +239,8 @@ def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: floa
         The target S.
     rest : ndarray of shape (e,), optional
         A1 rest length (m) of each edge of ``mesh_edges(faces)``; default its length on Ω.
-    k_a1, k_a2, k_a3, tol, stall, max_iter, anderson
-        As in :func:`relax_to_target`.
+    k_a1, k_a2, k_a3, tol, stall, max_iter, anderson, solver
+        As in :func:`relax_to_target` (Newton holds Ω's place on S where ``x0`` has it).
 
     Returns
     -------
@@ -246,9 +258,33 @@ def relax_from(x0, uv, faces, projector: MeshProjector, *, rest=None, k_a1: floa
         if rest.shape != prob.rest.shape or not np.all(rest > 0):
             raise ValueError(f"rest lengths: expected {prob.rest.shape[0]} positive values, got shape {rest.shape}")
         prob.rest = rest
-    x, it, status, residual, _ = iterate(prob, np.array(x0, float), tol=tol, stall=stall, max_iter=max_iter,
-                                         window=anderson, bar=None)
+    x, it, status, residual, _ = _solve(prob, np.array(x0, float), solver=solver, tol=tol, stall=stall,
+                                        max_iter=max_iter, anderson=anderson, bar=None)
     return x, it, status != "max_iter", residual, prob.energy(x, prob.project(x))
+
+
+def _solve(prob, x0, *, solver, tol, stall, max_iter, anderson, bar):
+    """The fine mesh's relaxation by ``solver``: (x, n_iter, status, residual, history)."""
+    if solver == "newton":
+        x, it, status, residual, history, slide = newton(prob, x0, tol=tol, max_iter=max_iter, bar=bar)
+        log.debug("U_A Newton: %s after %d iterations; Ω pushes to slide along S with at most %.2g k_A1·h "
+                  "per vertex (held)", status, it, slide)
+        return x, it, status, residual, history
+    if solver == "local-global":
+        return iterate(prob, x0, tol=tol, stall=stall, max_iter=max_iter, window=anderson, bar=bar)
+    raise InputError(f"unknown U_A solver {solver!r}: choose one of {', '.join(SOLVERS)}", solver=solver)
+
+
+def _message(status, it, residual, *, tol, stall, solver):
+    """The relaxation's one-line outcome."""
+    if status == "force":
+        return f"converged in {it} iterations (largest force {residual:.2g} k_A1·h)"
+    if status == "stall":
+        why = ("no Newton step lowers it" if solver == "newton"
+               else f"changed < {stall:g} in {STALL_WINDOW} iterations")
+        return (f"converged in {it} iterations: U_A stationary ({why}) with the largest force "
+                f"{residual:.2g} k_A1·h above tol {tol:g} (a coarse target mesh or folds in Ŝ keep it from 0)")
+    return f"not converged after {it} iterations (largest force {residual:.2g} k_A1·h, tol {tol:g})"
 
 
 def _coarse_levels(h, width, height):

@@ -6,10 +6,18 @@ those on Ω. Each vertex's principal directions are pushed through the
 Jacobians of its triangles and averaged (area-weighted) as *lines*, in the
 doubled-angle representation (cos 2φ, sin 2φ), where opposite vectors agree.
 
-Directions mean nothing where the two families cannot be told apart
-(|κ1| ≈ |κ2|: an umbilic like a dome's crown, or a saddle point with
-κ1 ≈ −κ2). The line field is therefore smoothed by one screened Laplace
-solve on Ω, weighted by the reliability w = a² / (a² + a0²), a = ||κ1| − |κ2||:
+Families follow the physics (:func:`family_order`): a string sits on the
+concave side, so the families are the algebraically larger and the smaller
+principal curvature, κ_hi ≥ κ_lo, and ``k1`` is the one of the sign that
+bends the design most (its area integral of |κ|). On a saddle k1 is then
+one sign and k2 the other everywhere: each family keeps to one face and its
+lines run on where |κ_hi| = |κ_lo|, where an order by magnitude swaps them.
+Where both curvatures have the design's main sign (a vault, a dome, the
+near-developable parts) this is the order by magnitude; where both have the
+other sign it is not, which keeps the labels continuous across the parabolic
+line between. Labels and directions mean nothing only at umbilics, κ_hi ≈ κ_lo
+(a dome's crown). The line field is therefore smoothed by one screened Laplace
+solve on Ω, weighted by the reliability w = a² / (a² + a0²), a = κ_hi − κ_lo:
 reliable vertices keep their direction, unreliable ones take their
 neighbours'. Family k2 is set exactly perpendicular to k1 on Ω (f is
 nearly an isometry: σ ≈ 1), and each family's curvature is the normal
@@ -25,7 +33,7 @@ from scipy.sparse.linalg import spsolve
 
 from airmat.design.field import MattressField
 
-__all__ = ["face_jacobians", "transfer_to_mattress", "direction_weight"]
+__all__ = ["face_jacobians", "transfer_to_mattress", "direction_weight", "family_order"]
 
 
 def face_jacobians(xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -42,9 +50,48 @@ def face_jacobians(xyz: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.nda
 
 
 def direction_weight(kappa: np.ndarray, anisotropy_scale: float) -> np.ndarray:
-    """Reliability (n,) in [0, 1) of the family labels: a² / (a² + a0²), a = ||κ1| − |κ2|| (1/m)."""
-    a = np.abs(np.abs(kappa[:, 0]) - np.abs(kappa[:, 1]))
+    """Reliability (n,) in [0, 1) of the family labels: a² / (a² + a0²), a = |κ1 − κ2| (1/m).
+
+    0 only at umbilics; on a saddle a = |κ1| + |κ2|, as reliable as anywhere.
+    """
+    a = np.abs(kappa[:, 0] - kappa[:, 1])
     return a**2 / (a**2 + anisotropy_scale**2)
+
+
+def family_order(kappa: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Which principal curvature is family k1 at each vertex: the signed order, the design's main sign first.
+
+    Parameters
+    ----------
+    kappa : ndarray of shape (n, 2)
+        Signed principal curvatures (1/m), in any order per vertex.
+    uv, faces : ndarray of shape (n, 2), (m, 3)
+        Ω's triangulation (m): the area weights.
+
+    Returns
+    -------
+    ndarray of shape (n,) of int
+        Column of ``kappa`` that is family k1 at each vertex: the larger κ when the
+        area integral of |max κ| is at least that of |min κ| (the design bends mostly
+        toward the bottom face's strings), else the smaller.
+
+    Examples
+    --------
+    A saddle whose two curvatures swap magnitude: k1 stays the positive one.
+
+    >>> uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> k = np.array([[3.0, -1.0], [-3.0, 1.0], [2.2, -2.1]])
+    >>> family_order(k, uv, np.array([[0, 1, 2]])).tolist()
+    [0, 1, 0]
+    """
+    from airmat.geometry.topology import flat_vertex_areas
+
+    kappa = np.asarray(kappa, float)
+    hi = np.argmax(kappa, axis=1)
+    area = flat_vertex_areas(uv, faces)
+    if area @ np.abs(kappa.max(axis=1)) >= area @ np.abs(kappa.min(axis=1)):
+        return hi
+    return 1 - hi
 
 
 def _cross2(a, b):
@@ -98,7 +145,8 @@ def transfer_to_mattress(xyz, uv, faces, kappa, dirs3d, *, width: float, height:
     faces : ndarray of shape (m, 3)
         Shared triangles.
     kappa : ndarray of shape (n, 2)
-        Signed principal curvatures of Ŝ (1/m), column 0 the larger magnitude.
+        Signed principal curvatures of Ŝ (1/m), in any order (:func:`family_order`
+        names the families).
     dirs3d : ndarray of shape (n, 2, 3)
         Their unit directions in space.
     width, height : float
@@ -121,6 +169,10 @@ def transfer_to_mattress(xyz, uv, faces, kappa, dirs3d, *, width: float, height:
     """
     xyz, uv = np.asarray(xyz, float), np.asarray(uv, float)
     faces, kappa, dirs3d = np.asarray(faces, np.int64), np.asarray(kappa, float), np.asarray(dirs3d, float)
+    first = family_order(kappa, uv, faces)
+    swap = first == 1
+    kappa = np.where(swap[:, None], kappa[:, ::-1], kappa)
+    dirs3d = np.where(swap[:, None, None], dirs3d[:, ::-1], dirs3d)
     z0 = _pushed_lines(xyz, uv, faces, dirs3d)
     raw = 0.5 * np.arctan2(z0[:, 1], z0[:, 0])
     w = direction_weight(kappa, anisotropy_scale)

@@ -104,7 +104,9 @@ def test_umbilic_patch_takes_the_surrounding_direction():
 def test_direction_weight():
     k = np.array([[3.0, 0.0], [1.0, 1.0], [2.0, -2.0], [0.5, 0.0]])
     w = direction_weight(k, 0.5)
-    assert w[0] == pytest.approx(9 / 9.25) and w[1] == 0 and w[2] == 0 and w[3] == pytest.approx(0.5)
+    # a = |κ1 − κ2|: 0 only at the umbilic; the saddle point κ = ±2 is told apart by the signs
+    assert w[0] == pytest.approx(9 / 9.25) and w[1] == 0 and w[2] == pytest.approx(16 / 16.25)
+    assert w[3] == pytest.approx(0.5)
 
 
 def test_deterministic():

@@ -1,0 +1,71 @@
+"""Projected Newton on U_A (airmat.design.ua_newton): its gradient, its held place on S, its convergence."""
+
+import numpy as np
+import pytest
+
+from airmat.errors import InputError
+from airmat.synthetic.targets import saddle
+from airmat.design import ua_newton
+from airmat.design.closest_point import MeshProjector
+from airmat.design.local_global import UAProblem, iterate
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.relax import relax_to_target
+from airmat.design.target import Target
+
+MATTRESS = Mattress(0.5, 0.4)
+
+
+@pytest.fixture(scope="module")
+def problem():
+    """A symmetric saddle (κ = ±3 1/m): far from developable, Ω has to slide along S everywhere."""
+    surf = Target.from_mesh(saddle(a=1 / 3.0, b=1 / 3.0, extent=(0.7, 0.6), spacing=0.01))
+    uv, faces = triangulate_mattress(MATTRESS, spacing=0.025)
+    prob = UAProblem(uv, faces, MeshProjector(surf.vertices, surf.faces), 1.0, 0.2, 0.02)
+    x0 = np.column_stack([uv - uv.mean(axis=0), np.zeros(len(uv))])
+    return prob, prob.projector.closest(x0).points
+
+
+def test_gradient_is_the_derivative_of_U_A(problem):
+    prob, x0 = problem
+    rng = np.random.default_rng(0)
+    x = x0 + 1e-3 * rng.standard_normal(x0.shape)            # off S and strained: every term active
+    cp = prob.project(x)
+    grad = ua_newton._gradient(prob, x, cp)
+    v = rng.standard_normal(x.shape)
+    eps = 1e-7                                                # central difference: error O(eps²)
+    e = [prob.energy(x + s * eps * v, prob.project(x + s * eps * v))["U_A"] for s in (1, -1)]
+    assert (e[0] - e[1]) / (2 * eps) == pytest.approx(np.sum(grad * v), rel=1e-5)
+
+
+def test_newton_reaches_the_tolerance_and_holds_the_place(problem):
+    prob, x0 = problem
+    x, it, status, residual, history, slide = ua_newton.newton(prob, x0, tol=1e-4, max_iter=100)
+    assert status == "force" and residual < 1e-4
+    rows = ua_newton.slide_constraints(x0, prob.projector.closest(x0).normal)
+    # the constraints are linear: the held mean tangential position and turn stay those of the start
+    assert np.abs(rows @ (x - x0).ravel()).max() < 1e-9 * prob.h * np.sqrt(len(x))
+    # the local-global iteration from the same start, given as many iterations, is still short of it
+    _, it_lg, status_lg, residual_lg, _ = iterate(prob, x0, tol=1e-4, stall=0.0, max_iter=it, window=5, bar=None)
+    assert status_lg == "max_iter" and residual_lg > residual
+
+
+def test_a_line_search_keeps_U_A_decreasing(problem, monkeypatch):
+    prob, x0 = problem
+    energies = []
+    real = ua_newton._line_search
+
+    def spy(prob_, x, e, p, slope):
+        step = real(prob_, x, e, p, slope)
+        energies.append(e if step is None else step[-1])
+        return step
+
+    monkeypatch.setattr(ua_newton, "_line_search", spy)
+    ua_newton.newton(prob, x0, tol=1e-4, max_iter=20)
+    assert np.all(np.diff(energies) <= 0)
+
+
+def test_unknown_solver_is_refused_before_any_work(problem):
+    prob, _ = problem
+    uv, faces = triangulate_mattress(MATTRESS, spacing=0.05)
+    with pytest.raises(InputError, match="solver"):
+        relax_to_target(uv, faces, None, solver="gradient", progress=False)
