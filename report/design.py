@@ -37,7 +37,7 @@ def _polyline_trace(strings, name: str, colour: str, axes: str) -> dict:
 
 
 def pattern_figure(result) -> dict:
-    """The strings on Ω, top face left and bottom face right, coloured by family (κ₁, κ₂: :data:`airmat.palette.FAMILIES`).
+    """The strings on Ω, top face left and bottom face right, by family (:data:`airmat.palette.FAMILIES`).
 
     Parameters
     ----------

@@ -95,8 +95,10 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
     card = (check_verdict(check) if check is not None else design_verdict(design) if design is not None
             else calibration_verdict(calibration))
     banners = [b for p in parts for b in p.banners]
-    see = (("check-map", f"Where the inflated {check.surface} face misses Ŝ: the map on the mattress"),) if check else ()
-    head = verdict_html(card, see=see) + "".join(f'<div class="banner {k}">{escape(t)}</div>\n' for k, t in dict.fromkeys(banners))
+    see = (("check-map", f"Where the inflated {check.surface} face misses Ŝ: the map on the mattress"),) \
+        if check is not None else ()
+    head = verdict_html(card, see=see) + "".join(f'<div class="banner {k}">{escape(t)}</div>\n'
+                                                 for k, t in dict.fromkeys(banners))
     if summary:
         head += f"<h2>Summary</h2>\n<pre>{escape(summary)}</pre>\n"
     body = "".join(f"<h2>{escape(p.title)}</h2>\n{p.body}\n" for p in parts)
