@@ -45,6 +45,7 @@ _FACADE = {
     "calibrate": "airmat.calib.calibrate:calibrate",
     "read_calibration": "airmat.calib.calibration_io:read_calibration",
     "write_calibration": "airmat.calib.calibration_io:write_calibration",
+    "plan": "airmat.calib.experiment_design:plan",
     # design
     "load_target": "airmat.design.target:load_target",
     "preset": "airmat.design.presets:preset",
