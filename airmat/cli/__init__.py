@@ -31,8 +31,8 @@ from airmat.progress import set_progress  # noqa: E402
 __all__ = ["main", "build_parser"]
 
 #: subcommand modules, in the order ``--help`` lists them
-COMMANDS = ("synth", "fit", "calibrate", "plan", "design", "refine", "inflate", "retie", "export", "report", "validate", "gallery",
-            "demo", "presets", "info")
+COMMANDS = ("synth", "fit", "calibrate", "plan", "design", "refine", "inflate", "retie", "export", "report", "validate",
+            "gallery", "demo", "presets", "info")
 
 log = logging.getLogger("airmat")
 
