@@ -213,6 +213,8 @@ class DesignCheck(Summarized):
     open_loop : airmat.inflation.simulate.Inflation or None
         A refined design's open-loop equilibrium (from the flat mattress), which every run was
         carried on from; None: every run was inflated from the flat mattress.
+    tolerance : airmat.check.tolerance.LinearTolerance or None
+        The tolerance to first order (:func:`airmat.check.tolerance.tolerance` of this check), when asked for.
     """
 
     design: object
@@ -222,6 +224,7 @@ class DesignCheck(Summarized):
     lengths: object = None
     monte_carlo: object = None
     open_loop: Inflation | None = None
+    tolerance: object = None
 
 
     def _summary(self):

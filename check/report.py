@@ -145,6 +145,8 @@ def check_dict(check) -> dict:
         "seconds": round(base.seconds, 3)}
     if check.monte_carlo is not None:
         doc["monte_carlo"] = monte_carlo_dict(check)
+    if getattr(check, "tolerance", None) is not None:      # the tolerance to first order (airmat.check.tolerance)
+        doc["tolerance"] = check.tolerance.block()
     # the one field that differs between two runs of the same inputs: wall-clock seconds per run
     doc["timings_s"] = {k: round(r.inflation.seconds, 3) for k, r in check.runs.items()}
     if check.monte_carlo is not None:
@@ -280,6 +282,10 @@ def summary_text(doc: dict, out) -> str:
         lines.append(line)
         if not mc["sigma_source"].startswith("posterior"):
             lines.append(f"  Monte-Carlo scatter sigma: {mc['sigma_source']}")
+    if doc.get("tolerance") is not None:
+        from airmat.check.tolerance import summary_line
+
+        lines.append(summary_line(doc["tolerance"]))
     from airmat.listing import listed
 
     lines.append(f"  wrote {listed(out, ('inflate.json', 'inflated.ply', 'inflated.3dm'))} to {out}")

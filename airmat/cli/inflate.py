@@ -31,7 +31,16 @@ def add_parser(sub, parents):
                    help="also inflate K (a count) Monte-Carlo samples of the string lengths (calibration posterior and "
                         "per-string scatter): RMS quantiles, inflated_bands.ply, the 95%% band (default 0: none)")
     p.add_argument("--tolerance-mm", type=float, default=None, metavar="T",
-                   help="with --samples: report the probability that the RMS deviation is <= T mm")
+                   help="report the probability that the RMS deviation is <= T mm (from --samples or the linear "
+                        "tolerance)")
+    p.add_argument("--tolerance", choices=("linear", "samples", "none"), default=None,
+                   help="the tolerance of the shape: 'linear' (the adjoint Jacobian at the median run times the "
+                        "covariance of the string lengths, checked against 8 full samples; the default without "
+                        "--samples, where the lengths have a spread), 'samples' (the K runs of --samples; the "
+                        "default with it) or 'none'")
+    p.add_argument("--cut-tolerance-mm", type=float, default=0.0, metavar="t",
+                   help="with the linear tolerance: every string cut and tied within +-t mm (uniform), on top of "
+                        "the calibration's spread (mm, default 0)")
     add_jobs_argument(p)
     p.set_defaults(func=run)
 
@@ -58,17 +67,15 @@ def run(args) -> int:
         params = replace(params, pressure=args.pressure_pa)
     if args.samples < 0:
         raise InputError(f"--samples must be >= 0, got {args.samples}")
-    if args.tolerance_mm is not None:
-        if args.samples == 0:
-            raise InputError("--tolerance-mm needs --samples K > 0")
-        if not (args.tolerance_mm > 0):
-            raise InputError(f"--tolerance-mm must be > 0, got {args.tolerance_mm!r}")
+    mode = _tolerance_mode(args)
     workers = jobs(args)
     design = read_design(args.design)
     result = check(design, resolution=args.resolution_mm * MM, params=params, envelope=not args.no_envelope,
                    workers=workers, calibrated_map=args.calibrated_map, scheduler=scheduler(args),
                    samples=args.samples, seed=args.seed if args.seed is not None else 0,
                    tolerance=args.tolerance_mm * MM if args.tolerance_mm is not None else None)
+    if mode == "linear":
+        result = _with_linear_tolerance(design, result, args, workers)
     with staged(args.out) as tmp:
         doc = write_check(result, tmp)
         write_report(tmp, check=result, title=f"airmat {getattr(args, 'command', 'check')}: {design.name}")
@@ -77,6 +84,42 @@ def run(args) -> int:
         print(f"  next: these are the open-loop lengths (Equation 3, one dash at a time); "
               f"'airmat refine {args.design} --out DIR' adjusts them together through the inflation")
     return not_converged(getattr(args, "command", "check"), check_not_converged(result))
+
+
+def _tolerance_mode(args) -> str:
+    """``--tolerance`` resolved (``samples`` with --samples K, else ``linear``), its options checked."""
+    mode = args.tolerance or ("samples" if args.samples > 0 else "linear")
+    if mode == "samples" and args.samples == 0:
+        raise InputError("--tolerance samples needs --samples K > 0")
+    if args.tolerance_mm is not None:
+        if args.samples == 0 and mode != "linear":
+            raise InputError("--tolerance-mm needs --samples K > 0 or --tolerance linear")
+        if not (args.tolerance_mm > 0):
+            raise InputError(f"--tolerance-mm must be > 0, got {args.tolerance_mm!r}")
+    if not (args.cut_tolerance_mm >= 0):
+        raise InputError(f"--cut-tolerance-mm must be >= 0, got {args.cut_tolerance_mm!r}")
+    if args.cut_tolerance_mm > 0 and mode != "linear":
+        raise InputError("--cut-tolerance-mm needs the linear tolerance (--tolerance linear)")
+    return mode
+
+
+def _with_linear_tolerance(design, result, args, workers):
+    """The check with its linear tolerance (airmat.check.tolerance), or as it is where none applies."""
+    import logging
+    from dataclasses import replace
+
+    from airmat.check.tolerance import applies, tolerance
+    from airmat.units import MM
+
+    why_not = applies(design, args.cut_tolerance_mm * MM)
+    if why_not is not None:
+        logging.getLogger(__name__).log(logging.WARNING if args.tolerance == "linear" else logging.INFO,
+                                        "no linear tolerance: %s", why_not)
+        return result
+    lin = tolerance(design, run=result, cut_tolerance=args.cut_tolerance_mm * MM,
+                    tolerance=args.tolerance_mm * MM if args.tolerance_mm is not None else None,
+                    seed=args.seed if args.seed is not None else 0, workers=workers, scheduler=scheduler(args))
+    return replace(result, tolerance=lin)
 
 
 def check_not_converged(result) -> list[str]:
