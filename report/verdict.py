@@ -4,7 +4,7 @@
 inflated named face lands within :data:`WITHIN_PCT_DIAG` % of Ŝ's bounding-box diagonal (RMS;
 the line the project sets for a constructible design, ``docs/benchmarks.md``), the design's
 constructibility, the tolerance (the Monte-Carlo band when there is one, else the lo95 / hi95
-runs) and the next command: ``airmat refine`` for open-loop lengths, ``airmat inflate --samples``
+runs) and the next command: ``airmat refine`` for open-loop lengths, ``airmat check --samples``
 for a band, else the workshop files. :func:`design_verdict` does the same for a design alone
 (``airmat design``, ``airmat refine``: the refinement's promise, or none yet), and
 :func:`calibration_verdict` for a calibration alone. :func:`verdict_html` draws the card.
@@ -115,11 +115,12 @@ def check_verdict(check) -> Verdict:
                     "adjusts the string lengths together through the inflation (these are Equation 3's, one "
                     "dash at a time)")
     elif check.monte_carlo is None:
-        cmd, why = (f"airmat inflate {folder} --samples {MC_SAMPLES} --out DIR",
+        cmd, why = (f"airmat check {folder} --samples {MC_SAMPLES} --out DIR",
                     f"the tolerance as a band: {MC_SAMPLES} inflations at sampled string lengths")
     else:
-        cmd, why = "", (f"to the workshop: {', '.join(WORKSHOP_FILES)} in {folder}" if within else
-                        f"not within {WITHIN_PCT_DIAG:g} % even refined: a denser pattern or a gentler target")
+        cmd, why = ((f"airmat export {folder} --paper A4", f"the workshop files: {', '.join(WORKSHOP_FILES)} "
+                     "and the 1:1 pattern on paper") if within else
+                    ("", f"not within {WITHIN_PCT_DIAG:g} % even refined: a denser pattern or a gentler target"))
     kind = "bad" if ok is False or not check.converged else "ok" if within else "warn"
     return Verdict(kind, headline, tuple(facts), cmd, why)
 
@@ -141,7 +142,7 @@ def design_verdict(design) -> Verdict:
         headline = (f"Lands within {WITHIN_PCT_DIAG:g} % of the diagonal: {'yes' if within else 'no'} (refined: "
                     f"the inflated {b['surface']} face {a['rms_mm']:.1f} mm RMS from Ŝ, {a['rms_pct_diag']:.2f} % "
                     f"of the diagonal, at {b['resolution_mm']:g} mm).")
-        cmd, why = (f"airmat inflate {folder} --out DIR --resolution-mm {b['resolution_mm']:g}",
+        cmd, why = (f"airmat check {folder} --out DIR --resolution-mm {b['resolution_mm']:g}",
                     "inflates the refined lengths with their lo95 / hi95 envelope")
         kind = "ok" if within else "warn"
     else:

@@ -135,21 +135,21 @@ def test_the_verdict_of_a_refined_design_asks_for_a_band_then_the_workshop(run_o
     refined = dataclasses.replace(result, refine=block, source="out/vault1-refined")
     text = _verdict(report_html(design=refined))
     assert "Lands within 1 % of the diagonal: yes (refined: the inflated" in text and "6.1 mm RMS" in text
-    assert "Next: airmat inflate out/vault1-refined --out DIR --resolution-mm 60" in text
+    assert "Next: airmat check out/vault1-refined --out DIR --resolution-mm 60" in text
     # its check, landing within 0.6 %: a band next
     med = checked.runs["median"]
     close = dataclasses.replace(med, deviation=dataclasses.replace(med.deviation, rms=0.006, rms_pct_diag=0.6))
     chk = dataclasses.replace(checked, design=refined, runs={**checked.runs, "median": close})
     text = _verdict(report_html(check=chk))
     assert "Lands within 1 % of the diagonal: yes" in text and "refined string lengths" in text
-    assert "Next: airmat inflate out/vault1-refined --samples 64 --out DIR" in text
+    assert "Next: airmat check out/vault1-refined --samples 64 --out DIR" in text
     # with the band: its tolerance, and the workshop files
     with_mc = _with_monte_carlo(chk)
     st = with_mc.monte_carlo.stats()
     html = report_html(check=with_mc)
     text = _verdict(html)
     assert f"95 % of the built shapes within {st['rms_p95'] * 1000:.1f} mm RMS" in text
-    assert "Next: to the workshop: cutting_list.csv" in text and "out/vault1-refined" in text
+    assert "Next: airmat export out/vault1-refined --paper A4" in text and "cutting_list.csv" in text
     assert 'class="verdict ok"' in html
     # not constructible: red, and back to the design
     rep = dataclasses.replace(result.approx.report, constructible=False, reasons=["σ max 1.2 > 1.1"])
