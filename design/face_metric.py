@@ -290,7 +290,9 @@ def relax_in_face_metric(relax, uv, faces, projector, *, thickness: float, kappa
     closest = projector.closest(x)
     message = (f"{relax.message}; then {rounds} rounds in the {face} face's metric: "
                f"{'converged' if converged else 'not converged'} (largest force {residual:.2g} k_A1·h)")
-    return dataclasses.replace(relax, xyz=x, converged=bool(relax.converged and converged), n_iter=int(n_iter),
+    # the result is the last round's: a first stage that stopped early but was carried on to convergence
+    # is converged (its message still says how the first stage ended)
+    return dataclasses.replace(relax, xyz=x, converged=bool(converged), n_iter=int(n_iter),
                                residual=float(residual), message=message, energy=energy,
                                distance={"mean": float(closest.distance.mean()),
                                          "max": float(closest.distance.max())},
