@@ -37,6 +37,7 @@ import numpy as np
 from airmat.errors import InputError
 from airmat.summary import Summarized
 from airmat.calib.model import kappa1, kappa_max, string_length
+from airmat.calib.likelihood import folded_normal_logpdf
 
 __all__ = ["TARGETS", "DEFAULT_L_OVER_L", "SpecimenPlan", "credible_area", "design_strings", "string_lengths",
            "plan_specimens", "plan"]
@@ -188,11 +189,6 @@ def design_strings(design):
     return (np.array([abs(float(s.kappa)) for s in strings]), np.array([float(s.eq3_span) for s in strings]))
 
 
-def _folded_normal_logpdf(y, mu, var):
-    """log density of |Normal(mu, var)| at y >= 0 (the likelihood's, over any broadcast shape)."""
-    return -0.5 * np.log(2.0 * np.pi * var) + np.logaddexp(-0.5 * (y - mu) ** 2 / var, -0.5 * (y + mu) ** 2 / var)
-
-
 def _weights(logw):
     """Normalized weights and their effective sample size along the last axis."""
     w = np.exp(logw - logw.max(axis=-1, keepdims=True))
@@ -287,7 +283,7 @@ def plan_specimens(samples, *, L: float, n_add: int = 4, candidates=DEFAULT_L_OV
         """Log-likelihood (S, ..., n) of the k-th new specimen's simulated measurement; mu of shape (n, ...)."""
         noise = (z[k] * np.sqrt(var[truth])).reshape((-1,) + (1,) * (mu.ndim - 1))
         y = np.abs(mu[truth] + noise)                                 # (S, ...): measured under the drawn truth
-        return _folded_normal_logpdf(y[..., None], mu.T[None], var)
+        return folded_normal_logpdf(y[..., None], mu.T[None], var)
 
     mu = kappa1(cand[None, :] * L, L, delta[:, None], d[:, None])     # (n, C): Equation 3 once
     acc = self_out.copy()

@@ -15,7 +15,7 @@ import numpy as np
 from airmat.errors import InputError
 from airmat.calib.model import kappa1
 
-__all__ = ["PARAM_NAMES", "Priors", "DEFAULT_PRIORS", "SpecimenData", "specimen_data",
+__all__ = ["PARAM_NAMES", "folded_normal_logpdf", "Priors", "DEFAULT_PRIORS", "SpecimenData", "specimen_data",
            "log_probability"]
 
 #: parameter order in every (..., 3) array: slip (m), thickness (m), scatter (1/m)
@@ -130,7 +130,7 @@ def _broadcastable(kappa, *others) -> bool:
         return False
 
 
-def _folded_normal_logpdf(x, mu, var):
+def folded_normal_logpdf(x, mu, var):
     """log density of |Normal(mu, var)| at x >= 0; arrays broadcast."""
     norm = -0.5 * np.log(2.0 * np.pi * var)
     return norm + np.logaddexp(-0.5 * (x - mu) ** 2 / var, -0.5 * (x + mu) ** 2 / var)
@@ -164,7 +164,7 @@ def log_probability(theta, data: SpecimenData, bounds: np.ndarray, sigma_scale: 
     delta, d, sigma = theta[inside].T
     mu = kappa1(data.l[None, :], data.L[None, :], delta[:, None], d[:, None])  # (W_in, S)
     var = data.kappa_se[None, :] ** 2 + sigma[:, None] ** 2
-    loglike = _folded_normal_logpdf(data.kappa[None, :], mu, var).sum(axis=1)
+    loglike = folded_normal_logpdf(data.kappa[None, :], mu, var).sum(axis=1)
     logprior = -np.log1p((sigma / sigma_scale) ** 2)
     out[inside] = loglike + logprior
     return out

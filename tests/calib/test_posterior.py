@@ -67,7 +67,7 @@ def test_log_prob_is_minus_inf_outside_bounds_without_evaluating_the_model(monke
 def test_folded_normal_is_a_density_on_the_half_line():
     for mu, var in ((0.0, 0.04), (0.3, 0.09), (5.0, 0.01)):
         top = mu + 40 * np.sqrt(var)
-        total, _ = quad(lambda x: np.exp(lik._folded_normal_logpdf(x, mu, var)), 0, top,
+        total, _ = quad(lambda x: np.exp(lik.folded_normal_logpdf(x, mu, var)), 0, top,
                         points=[mu], limit=200)
         assert total == pytest.approx(1.0, rel=1e-8)
 
@@ -118,7 +118,7 @@ def test_flat_specimen_likelihood_penalizes_a_delta_that_would_bend_it():
     deltas = np.array([0.010, 0.013, 0.0155, 0.018, 0.025])
     theta = np.column_stack([deltas, np.full(5, D), np.full(5, 0.01)])
     lp = log_probability(theta, *args_for(data))
-    flat_part = lik._folded_normal_logpdf(0.0, kappa1(0.27, L, deltas, D), 0.02**2 + 0.01**2)
+    flat_part = lik.folded_normal_logpdf(0.0, kappa1(0.27, L, deltas, D), 0.02**2 + 0.01**2)
     assert np.all(np.diff(flat_part[:3]) > 0) and flat_part[2] == flat_part[3] == flat_part[4]
     assert lp[3] == lp.max()  # the truth
 
