@@ -30,9 +30,20 @@ def _dependencies() -> list:
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
-    """A wheel built from this tree (in an isolated build environment, as pip builds it)."""
-    out = tmp_path_factory.mktemp("wheel")
-    run = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(ROOT)],
+    """A wheel built from this tree's tracked files (in an isolated build environment, as pip builds it).
+
+    Built from a copy, so the build leaves nothing in the repository, and a file the wheel needs that
+    is not tracked is missed here as it would be on a fresh clone.
+    """
+    import shutil
+
+    src, out = tmp_path_factory.mktemp("src"), tmp_path_factory.mktemp("wheel")
+    tracked = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+    for name in filter(None, tracked.decode().split("\0")):
+        if (ROOT / name).is_file():
+            (src / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, src / name)
+    run = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(src)],
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]
     (path,) = glob.glob(str(out / "airmat-*.whl"))
@@ -45,8 +56,11 @@ def test_the_wheel_installs_only_airmat_with_every_module_and_the_schemas(wheel)
     assert {n.split("/")[0] for n in names} == {"airmat", wheel.name.split("-py3")[0] + ".dist-info"}
     # every module of the tree is in the wheel, under its airmat.* name
     for folder, package in FOLDERS.items():
-        for py in (ROOT / folder).rglob("*.py"):
-            assert f"{package}/{py.relative_to(ROOT / folder).as_posix()}" in names, py
+        tracked = subprocess.run(["git", "ls-files", "--", f"{folder}/*.py"], cwd=ROOT, capture_output=True,
+                                 text=True, check=True).stdout.split()
+        assert tracked, folder
+        for py in tracked:
+            assert f"{package}/{Path(py).relative_to(folder).as_posix()}" in names, py
     schemas = {Path(n).name for n in names if n.startswith("airmat/schemas/")}
     assert schemas == {p.name for p in (ROOT / "airmat" / "schemas").glob("*.schema.json")} and schemas
 
