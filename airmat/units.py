@@ -2,7 +2,8 @@
 
 MM = 1e-3          #: metres per millimetre
 M_TO_MM = 1e3      #: millimetres per metre
-SCAN_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254}  #: metres per scan unit
+#: metres per scan unit; "us-ft" is the US survey foot (1200/3937 m) of state-plane CRSs, 2 ppm off the foot
+SCAN_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "ft": 0.3048, "us-ft": 1200 / 3937}
 
 __all__ = ["MM", "M_TO_MM", "SCAN_UNITS", "mm_to_m"]
 

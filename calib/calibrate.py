@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from airmat.constants import PAPER_D, PAPER_D_SD, PAPER_DELTA, PAPER_DELTA_SD
 from airmat.errors import InputError
 from airmat.progress import progress
 from airmat.calib.curve import KappaCurve, kappa_curve, most_common_L
@@ -24,7 +25,7 @@ from airmat.calib.posterior import (DEFAULT_PRIORS, Posterior, Priors, check_sam
                                    sample_posterior, specimen_data)
 from airmat.summary import Summarized, band_mm
 
-__all__ = ["SpecimenFit", "Calibration", "fit_specimens", "calibrate"]
+__all__ = ["SpecimenFit", "Calibration", "fit_specimens", "calibrate", "check_unit", "predicted_kappa_range"]
 
 log = logging.getLogger(__name__)
 
@@ -109,14 +110,14 @@ def _reference_face(kappa: float, se: float, offset: float, path: str):
     return kappa / scale, se / scale**2
 
 
-def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options: dict):
+def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options: dict, check_units: bool = True):
     """Read and fit specimen i; returns (SpecimenFit, read seconds, fit seconds)."""
     from airmat.calib.cylinder_stability import fit_cylinder_stable
     from airmat.calib.scan_io import read_scan
 
     path = manifest.scan_paths[i]
     t0 = time.perf_counter()
-    scan = read_scan(path, units=scan_units, seed=seed)
+    scan = read_scan(path, units=manifest.unit(i) or scan_units, seed=seed)
     t1 = time.perf_counter()
     try:
         fit = fit_cylinder_stable(scan.points, seed=seed, **{"quantization": scan.quantization, "strict": True,
@@ -127,6 +128,9 @@ def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options
     if not fit.converged:  # only with fit_options strict=False
         log.warning("%s: cylinder fit did not converge (%s)", path, fit.message)
     offset = float(manifest.surface_offset[i])
+    if check_units:
+        check_unit(float(fit.radius), scan.units, l=float(manifest.l[i]), L=float(manifest.L[i]), offset=offset,
+                   path=path, explicit=manifest.unit(i) is not None or scan_units is not None)
     kappa, se = _reference_face(float(fit.kappa), float(fit.kappa_se), offset, path)
     if not (np.isfinite(se) and se > 0):
         raise InputError(f"cylinder fit gave no usable standard error ({fit.kappa_se!r} 1/m)",
@@ -139,19 +143,96 @@ def _fit_one(manifest: Manifest, i: int, scan_units: str, seed: int, fit_options
     return spec, t1 - t0, t2 - t1
 
 
+#: the thickness a fitted radius cannot be below, and the (Delta, d) box Equation 3 predicts from: the paper's
+#: values three nominal standard deviations either way (no calibration yet: these are what it measures)
+_THICKNESS_MIN = PAPER_D - 3 * PAPER_D_SD
+_DELTA_RANGE = (PAPER_DELTA - 3 * PAPER_DELTA_SD, PAPER_DELTA + 3 * PAPER_DELTA_SD)
+_D_RANGE = (PAPER_D - 3 * PAPER_D_SD, PAPER_D + 3 * PAPER_D_SD)
+#: a curvature this many times outside the predicted range is far from Equation 3
+_FAR = 2.0
+
+
+def predicted_kappa_range(l: float, L: float, offset: float = 0.0) -> tuple[float, float]:
+    """The curvatures (1/m) Equation 3 gives a string ``l`` over ``L`` (m) for Delta and d in the paper's
+    values +- 3 nominal standard deviations: the range a scan in the right unit falls in."""
+    D, d = np.meshgrid(np.linspace(*_DELTA_RANGE, 5), np.linspace(*_D_RANGE, 5))
+    k = kappa1(l, L, D, d)
+    return float(np.min(k)), float(np.max(k))
+
+
+def check_unit(radius: float, unit: str, *, l: float, L: float, offset: float = 0.0, path=None,
+               explicit: bool = False) -> None:
+    """Refuse (or warn about) a fitted radius a scan read in the wrong unit gives, naming the unit that fits.
+
+    A scan in centimetres or inches read as millimetres fits a radius 10 or 25 times too small, below
+    the mattress's thickness (the inner face would have a negative radius); one in feet read as metres
+    3.3 times too large. Either is far from what Equation 3 predicts for the specimen's ``l / L``. When
+    another unit puts the curvature inside the predicted range, the scan is refused with that unit
+    (:class:`airmat.errors.InputError`), unless the unit was given explicitly (``explicit``; then a
+    warning); a radius that is merely far from the prediction, with no unit to explain it, is logged.
+
+    Parameters
+    ----------
+    radius : float
+        Fitted radius of the scanned face (m); ``inf`` for a flat specimen (not checked).
+    unit : str
+        The unit the scan was read in.
+    l, L, offset : float
+        The specimen's string length, string-end distance and surface offset (m).
+    path : str, optional
+        The scan, for the message.
+    explicit : bool
+        Whether the unit was given (manifest ``units`` column, ``--scan-units``).
+    """
+    from airmat.units import SCAN_UNITS
+
+    if not np.isfinite(radius) or radius <= 0:
+        return
+    k_lo, k_hi = predicted_kappa_range(l, L)
+    kappa = 1.0 / (radius + offset) if radius + offset > 0 else np.inf
+    thin = radius + offset < _THICKNESS_MIN
+    far = kappa > _FAR * k_hi or kappa < k_lo / _FAR
+    if not (thin or far):
+        return
+    centre = np.sqrt(k_lo * k_hi) if k_lo > 0 else k_hi / 2
+
+    def kappa_in(u):
+        r = radius * SCAN_UNITS[u] / SCAN_UNITS[unit] + offset
+        return 1.0 / r if r > 0 else np.inf
+
+    # the US survey foot is 2 ppm off the foot: no radius tells them apart, the hint names the foot
+    fits = [u for u in SCAN_UNITS if u not in (unit, "us-ft") and k_lo <= kappa_in(u) <= k_hi]
+    fits.sort(key=lambda u: abs(np.log(kappa_in(u) / centre)))
+    why = (f"radius {radius * 1e3:.3g} mm is below the mattress's thickness (at least {_THICKNESS_MIN * 1e3:g} mm)"
+           if thin else f"radius {radius * 1e3:.3g} mm is far from what Equation 3 predicts for l/L = {l / L:.3g} "
+           f"({1e3 / k_hi:.3g} to {'inf' if k_lo <= 0 else f'{1e3 / k_lo:.3g}'} mm with the paper's Delta and d)")
+    if fits:
+        u = fits[0]
+        msg = (f"{why}: read in {unit}; in {u} it is {radius * SCAN_UNITS[u] / SCAN_UNITS[unit] * 1e3:.3g} mm, "
+               f"as Equation 3 predicts: pass --scan-units {u} or give the scan's units in the manifest")
+        if not explicit:
+            raise InputError(msg, path=path, radius=radius, unit=unit, fits=u)
+        log.warning("%s: %s", path, msg)
+    else:
+        log.warning("%s: %s (read in %s; no other unit explains it: another mattress?)", path, why, unit)
+
+
 def fit_specimens(manifest: Manifest, *, scan_units: str | None = None, seed=0,
-                  fit_options: dict | None = None):
+                  fit_options: dict | None = None, check_units: bool = True):
     """Read and fit every scan of a manifest (progress bar on a terminal).
 
     Parameters
     ----------
     manifest : Manifest
-    scan_units : {"m", "cm", "mm", "in"}, optional
-        Unit of the scan files' coordinates; default: the format's own (m for E57, LAS/LAZ), else mm.
+    scan_units : {"m", "cm", "mm", "in", "ft", "us-ft"}, optional
+        Unit of the scan files' coordinates, where the manifest's ``units`` column gives none; default:
+        what the file states (m for E57, LAS/LAZ in their CRS's unit, an exporter's comment), else mm.
     seed : int
         Seeds the per-scan random steps (mesh sampling, RANSAC).
     fit_options : dict, optional
         Extra keyword options of ``airmat.calib.cylinder_fit.fit_cylinder``.
+    check_units : bool
+        Refuse a scan whose fitted radius shows it was read in the wrong unit (:func:`check_unit`).
 
     Returns
     -------
@@ -168,7 +249,7 @@ def fit_specimens(manifest: Manifest, *, scan_units: str | None = None, seed=0,
     specimens, t_read, t_fit = [], 0.0, 0.0
     with progress(total=len(manifest), desc="fitting scans", unit="scan") as bar:
         for i in range(len(manifest)):
-            spec, tr, tf = _fit_one(manifest, i, scan_units, int(seeds[i]), fit_options or {})
+            spec, tr, tf = _fit_one(manifest, i, scan_units, int(seeds[i]), fit_options or {}, check_units)
             specimens.append(spec)
             t_read, t_fit = t_read + tr, t_fit + tf
             bar.update(1)
@@ -193,8 +274,8 @@ def calibrate(manifest, *, scan_units: str | None = None, n_walkers: int = 32, m
     ----------
     manifest : str, PathLike or Manifest
         The manifest CSV (see :mod:`airmat.calib.manifest`) or an already read one.
-    scan_units : {"m", "cm", "mm", "in"}, optional
-        Unit of the scan files.
+    scan_units : {"m", "cm", "mm", "in", "ft", "us-ft"}, optional
+        Unit of the scan files where the manifest's ``units`` column gives none.
     n_walkers, max_steps : int
         emcee ensemble size and chain-length cap (:func:`airmat.calib.posterior.sample_posterior`).
     seed : int

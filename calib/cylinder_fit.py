@@ -189,8 +189,11 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         Arc bins of the cluster-robust standard error.
     quantization : float
         Step of the coordinates as the file stored them (m; 32-bit floats
-        far from the origin, :attr:`airmat.calib.scan_io.Scan.quantization`):
-        refused when it exceeds the noise, as the surface is then lost.
+        far from the origin, a LAS scale, :attr:`airmat.calib.scan_io.Scan.quantization`).
+        Rounding to it is noise of standard deviation ``step / sqrt(12)``:
+        the noise level is at least that, so the fit and its standard error
+        account for it by their effect, not the step alone; refused when
+        fewer than 50 steps span the scan (no surface is left).
     max_extent : float
         Refuse when the fitted face (its inliers' robust bounding diagonal)
         spans more than this (m): no specimen is that large, a survey tile
@@ -221,11 +224,15 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         raise NotACylinderError(
             f"points do not sample a surface: local scatter {est.sigma * 1e3:.3g} mm in "
             f"{est.voxel * 1e3:.3g} mm voxels", roughness=est.roughness)
-    noise_level = float(noise) if noise is not None else max(est.sigma, 1e-6 * diag)
-    if quantization > noise_level:
-        raise InputError(f"coordinates lost precision: stored as 32-bit floats far from the origin, their "
-                         f"step {quantization * 1e3:.3g} mm exceeds the scan noise {noise_level * 1e3:.3g} mm "
-                         f"(export in float64 or re-centred)", quantization=quantization, noise=noise_level)
+    # rounding to a step q is noise of sd q / sqrt(12) (uniform): a floor under the local estimate, which a
+    # grid of points flattens toward 0 (a LAS at 1 cm scale looked like 0.002 mm of noise)
+    noise_level = float(noise) if noise is not None else \
+        max(est.sigma, quantization / np.sqrt(12), 1e-6 * diag)
+    if quantization * _MIN_STEPS_ACROSS > diag:
+        raise InputError(f"coordinates lost precision: stored as 32-bit floats far from the origin (or on a "
+                         f"coarse grid), their step {quantization * 1e3:.3g} mm across a scan {diag:.3g} m wide "
+                         f"leaves no surface to fit (export in float64 or re-centred)", quantization=quantization,
+                         noise=noise_level)
     cand, n_support = specimen_candidates(pts, sub, noise_level, diag, est, rng) if remove_support \
         else (pts, 0)
     cand_sub = cand[rng.choice(len(cand), _SUB, replace=False)] if len(cand) > _SUB else cand
@@ -272,6 +279,9 @@ def _start(cand_sub, n_points, voxel, sigma, diag, max_planarity, rng):
         stage = refine(down[init.inliers], init.frame, f_scale=sigma, max_nfev=100)
     return init, stage
 
+
+#: fewest steps of the stored coordinates (32-bit floats, an integer scale) across the scan
+_MIN_STEPS_ACROSS = 50
 
 #: normal spread (degrees) below which a specimen is initialized as nearly flat
 _FLAT_DEG = 20.0
@@ -330,9 +340,10 @@ def _summarize(cand, frame, final, *, used, n_points, n_support, noise, sigma, n
                                 rms=rms, noise=noise)
     se_iid, se_cl = kappa_standard_error(None, frame, f_scale=f_scale, loss=loss, n_clusters=n_clusters,
                                          state=final.state,
-                                         arc=arc_from_local(np.compress(used, X), np.compress(used, Z), frame.kappa))
+                                         arc=arc_from_local(np.compress(used, X), np.compress(used, Z), frame.kappa),
+                                         axial=np.compress(used, cand, axis=0) @ frame.axis)
     kappa, se = abs(frame.kappa), max(se_iid, se_cl)
-    flat = kappa < 2 * se
+    flat = not kappa > 2 * se   # also kappa == 0 with se == 0 (a degenerate grid): no 1 / 0
     center = frame.origin if flat else frame.origin + frame.normal / frame.kappa
     s = arc_from_local(X[inl_idx], Z[inl_idx], frame.kappa)
     q_lo, q_hi = np.quantile(s, [0.005, 0.995])

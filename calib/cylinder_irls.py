@@ -140,7 +140,8 @@ def _frozen_spin_step(A, grad, prob, x):
 
 def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: float,
                          loss: str = "soft_l1", n_clusters: int = 24,
-                         state: tuple | None = None, arc: np.ndarray | None = None) -> tuple[float, float]:
+                         state: tuple | None = None, arc: np.ndarray | None = None,
+                         axial: np.ndarray | None = None) -> tuple[float, float]:
     """Standard error of kappa (1/m): classical and cluster-robust sandwich.
 
     The M-estimator covariance ``A^-1 B A^-1`` uses ``A = sum psi'(e) J J^T``
@@ -165,6 +166,14 @@ def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: f
     arc : ndarray of shape (N,), optional
         The points' arc positions in ``frame`` (m, :func:`airmat.calib.cylinder_lsq.arc_position`;
         saves another).
+    axial : ndarray of shape (N,), optional
+        The points' positions along the axis (m). With it the cluster-robust
+        estimate is also taken over patches of the surface (a grid of arc and
+        axial bins), in the numbers of :data:`PATCH_COUNTS`, and the largest
+        variance kept: residuals
+        correlated over a few centimetres in both directions (a scanner's
+        banding, wrinkles) are then one cluster per patch, not independent
+        points.
 
     Returns
     -------
@@ -189,8 +198,57 @@ def kappa_standard_error(points: np.ndarray, frame: CylinderFrame, *, f_scale: f
     g = min(n_clusters, max(n // 50, 2))
     edges = np.quantile(s[::max(len(s) // 20_000, 1)], np.linspace(0, 1, g + 1)[1:-1])
     bins = np.searchsorted(edges, s)
-    G = np.stack([np.bincount(bins, score[j], g) for j in range(p)], axis=1)
-    B_cl = G.T @ G * g / (g - 1) * (n - 1) / max(n - p, 1)
     var_iid = (A_inv @ B_iid @ A_inv)[4, 4]
-    var_cl = (A_inv @ B_cl @ A_inv)[4, 4]
+    G = _cluster_sums(score, bins, g)
+    var_cl = _cluster_variance(G, n, A_inv)
+    if axial is not None and n >= 50 * max(PATCH_COUNTS):
+        var_cl = max(var_cl, *(_cluster_variance(G, n, A_inv) for G in _patch_sums(score, s, axial)))
     return float(np.sqrt(max(var_iid, 0.0)) / scale), float(np.sqrt(max(var_cl, 0.0)) / scale)
+
+
+#: numbers of surface patches the cluster-robust variance is also taken over (with ``axial``)
+PATCH_COUNTS = (16, 36)
+#: arc and axial bins of the fine grid the patches are merged from
+_FINE = 72
+
+
+def _cluster_sums(score, labels, g) -> np.ndarray:
+    """(g', p) sums of the scores (p, n) over the clusters ``labels`` in ``range(g)`` that hold points."""
+    G = np.stack([np.bincount(labels, score[j], g) for j in range(score.shape[0])], axis=1)
+    return G[np.any(G != 0, axis=1)]
+
+
+def _cluster_variance(G, n, A_inv) -> float:
+    """Cluster-robust sandwich variance of kappa (scaled units) from the (g, p) cluster score sums."""
+    g, p = G.shape
+    g = max(g, 2)
+    B = G.T @ G * g / (g - 1) * (n - 1) / max(n - p, 1)
+    return float((A_inv @ B @ A_inv)[4, 4])
+
+
+def _patch_sums(score, arc, axial):
+    """Score sums over a grid of about ``count`` patches for each of :data:`PATCH_COUNTS`: arc and axial bins of
+    about equal counts, as many rows as columns on a square surface (in proportion to the spans otherwise),
+    merged from one fine grid of equal-width bins so that the points are binned once."""
+    stride = max(len(arc) // 20_000, 1)
+    fine, groups = [], []
+    for v in (arc, axial):
+        sub = v[::stride]   # bin widths and the points' spread over the bins from a systematic subsample (speed)
+        lo, span = float(sub.min()), float(np.ptp(sub)) or 1.0
+        b = ((v - lo) * (_FINE / span)).astype(np.intp)
+        fine.append(np.clip(b, 0, _FINE - 1, out=b))
+        share = np.bincount(np.clip(((sub - lo) * (_FINE / span)).astype(np.intp), 0, _FINE - 1),
+                            minlength=_FINE) / len(sub)
+        groups.append((np.cumsum(share) - share / 2, span))   # each fine bin's middle, as a share of the points
+    cells = fine[0] * _FINE + fine[1]
+    sums = np.stack([np.bincount(cells, score[j], _FINE * _FINE) for j in range(score.shape[0])], axis=1)
+    c, r = np.divmod(np.arange(_FINE * _FINE), _FINE)
+    (mid_s, span_s), (mid_y, span_y) = groups
+    for count in PATCH_COUNTS:
+        gs = int(np.clip(round(np.sqrt(count * span_s / span_y)), 1, count))
+        gy = max(count // gs, 1)
+        col = np.minimum((mid_s * gs).astype(np.intp), gs - 1)
+        row = np.minimum((mid_y * gy).astype(np.intp), gy - 1)
+        labels = col[c] * gy + row[r]
+        G = np.stack([np.bincount(labels, sums[:, j], gs * gy) for j in range(sums.shape[1])], axis=1)
+        yield G[np.any(G != 0, axis=1)]

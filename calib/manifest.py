@@ -10,7 +10,11 @@ A CSV file with a header and one row per scanned specimen::
 - ``l_mm``: string length (mm), ``0 < l <= L``;
 - ``L_mm``: geodesic distance of the string ends on the mattress (mm), > 0;
 - ``surface_offset_mm`` (optional, default 0): when the scanned face is not
-  the reference face, the curvature is ``kappa = 1 / (R + offset)``.
+  the reference face, the curvature is ``kappa = 1 / (R + offset)``;
+- ``units`` (optional): the unit of that scan's coordinates, one of
+  ``m cm mm in ft us-ft``; an empty cell keeps the default (``--scan-units``,
+  else what the file states, else mm), so a calibration can mix a PTS in
+  metres with PLYs in millimetres.
 
 Blank lines and lines starting with ``#`` are ignored. Values are converted
 to metres here; the library works in SI.
@@ -33,12 +37,12 @@ from pathlib import Path, PureWindowsPath
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.units import MM
+from airmat.units import MM, SCAN_UNITS
 
 __all__ = ["Manifest", "read_manifest", "write_manifest_text", "REQUIRED_COLUMNS", "N_PARAMETERS"]
 
 REQUIRED_COLUMNS = ("scan", "l_mm", "L_mm")
-OPTIONAL_COLUMNS = ("surface_offset_mm",)
+OPTIONAL_COLUMNS = ("surface_offset_mm", "units")
 #: parameters of the calibration (Delta, d, sigma): at least this many specimens
 N_PARAMETERS = 3
 
@@ -57,6 +61,9 @@ class Manifest:
         The scan files, resolved against the manifest's folder.
     l, L, surface_offset : ndarray of shape (S,)
         String length, string-end distance and surface offset (m).
+    units : tuple of (str or None)
+        Each scan's coordinate unit from the ``units`` column (a key of
+        :data:`airmat.units.SCAN_UNITS`), None where not given.
     """
 
     path: str
@@ -65,6 +72,11 @@ class Manifest:
     l: np.ndarray
     L: np.ndarray
     surface_offset: np.ndarray
+    units: tuple = ()
+
+    def unit(self, i: int) -> str | None:
+        """Scan ``i``'s unit from the manifest, or None."""
+        return self.units[i] if i < len(self.units) else None
 
     def __len__(self) -> int:
         return len(self.scans)
@@ -130,7 +142,7 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
     Parameters
     ----------
     path : str or PathLike
-        The CSV file (columns ``scan,l_mm,L_mm[,surface_offset_mm]``, lengths in mm).
+        The CSV file (columns ``scan,l_mm,L_mm[,surface_offset_mm][,units]``, lengths in mm).
     check_files : bool
         Check that every scan file exists.
 
@@ -143,7 +155,7 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
     ------
     airmat.errors.InputError
         With ``path`` the manifest: missing file, missing columns (named),
-        non-numeric or non-finite values (line number), ``l <= 0``, ``l > L``,
+        non-numeric or non-finite values (line number), an unknown unit, ``l <= 0``, ``l > L``,
         ``L <= 0``, a scan listed twice, a missing scan file, or fewer
         specimens than the calibration's parameters.
     """
@@ -156,7 +168,7 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
                          f"{','.join(REQUIRED_COLUMNS)} (found {','.join(header)})",
                          path=path, missing=missing)
     col = {name: header.index(name) for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in header}
-    scans, paths, values, seen = [], [], [], {}
+    scans, paths, values, units, seen = [], [], [], [], {}
     for line, row in rows:
         if len(row) < len(header):
             raise InputError(f"line {line}: {len(row)} values for {len(header)} columns",
@@ -167,6 +179,10 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
         off = row[col["surface_offset_mm"]] if "surface_offset_mm" in col else ""
         off_mm = _number(off, "surface_offset_mm", line, path, decimal_comma=comma) if off else 0.0
         _check_row(line, scan, l_mm, L_mm, path)
+        unit = row[col["units"]] if "units" in col else ""
+        if unit and unit not in SCAN_UNITS:
+            raise InputError(f"line {line}: units = {unit!r} is not a scan unit; use one of "
+                             f"{', '.join(SCAN_UNITS)} (or leave it empty)", path=path, line=line)
         try:
             resolved = (path.parent / scan).resolve()
             if "\\" in scan and not resolved.exists():   # written on Windows: try its separators as /
@@ -185,12 +201,13 @@ def read_manifest(path, *, check_files: bool = True) -> Manifest:
         scans.append(scan)
         paths.append(str(resolved))
         values.append((l_mm, L_mm, off_mm))
+        units.append(unit or None)
     if len(scans) < N_PARAMETERS:
         raise InputError(f"{len(scans)} specimen(s) cannot determine the {N_PARAMETERS} parameters "
                          f"(Delta, d, sigma): list at least {N_PARAMETERS} scans", path=path)
     v = np.array(values, dtype=float) * MM
     return Manifest(path=str(path), scans=tuple(scans), scan_paths=tuple(paths),
-                    l=v[:, 0], L=v[:, 1], surface_offset=v[:, 2])
+                    l=v[:, 0], L=v[:, 1], surface_offset=v[:, 2], units=tuple(units))
 
 
 def write_manifest_text(scans, l_mm, L_mm, surface_offset_mm=None) -> str:

@@ -188,9 +188,10 @@ def _offset(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 def _quantization(raw, lo, hi, n_finite) -> float:
-    """Spacing of 32-bit floats at the file's largest coordinate (file units); 0 for float64 files."""
+    """Spacing of 32-bit floats at the file's largest coordinate, or the integer step of a scaled-integer
+    format (LAS scale, E57 scaled integers), whichever is larger (file units); 0 for float64 files."""
     if not raw.float32 or not n_finite:
-        return 0.0
+        return float(raw.step)
     largest = float(np.maximum(np.abs(lo), np.abs(hi)).max())
     return float(np.spacing(np.float32(largest)))
 
@@ -241,7 +242,8 @@ def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units
     in_file = extent / SCAN_UNITS[unit]
     fits = [u for u, f in SCAN_UNITS.items() if u != unit and TYPICAL_EXTENT[0] <= in_file * f <= TYPICAL_EXTENT[1]]
     size = f"extent {extent * 1e3:.3g} mm" if extent < MIN_EXTENT else f"extent {extent:.3g} m"
-    names = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "inches"}
+    names = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "inches", "ft": "feet",
+             "us-ft": "US survey feet"}
     fixed = format_units and not explicit   # the format's own unit (E57, LAS): a file written in another one
     if fixed and fits:
         other = in_file * SCAN_UNITS[fits[0]]

@@ -19,12 +19,15 @@ suffix                    reader module         library
 from __future__ import annotations
 
 import importlib
+import logging
 import os
 from pathlib import Path
 
-from airmat.calib.scan_readers.raw import RawCloud
+from airmat.calib.scan_readers.raw import RawCloud, check_plausible
 
-__all__ = ["RawCloud", "READERS", "SUPPORTED_SUFFIXES", "read_cloud"]
+__all__ = ["RawCloud", "READERS", "SUPPORTED_SUFFIXES", "read_cloud", "sniff_format"]
+
+log = logging.getLogger(__name__)
 
 #: file suffix -> the module under airmat.calib.scan_readers that reads it
 READERS = {
@@ -71,6 +74,33 @@ def read_cloud(path: str | os.PathLike, *, scan_index: int | None = None) -> Raw
         raise InputError(f"--scan-index {scan_index}: a {path.suffix} file holds one scan", path=path)
     from airmat.calib.scan_readers.cut_short import check_complete
 
-    check_complete(path)   # a file cut short would give part of the scan, or a library's message
+    suffix = path.suffix.lower()
+    sniffed = sniff_format(path)
+    if sniffed is not None and READERS[sniffed] != name:
+        log.warning("%s: the file is a %s, not what its name says (%s): read as %s", path, sniffed[1:].upper(),
+                    suffix, sniffed[1:].upper())
+        suffix, name = sniffed, READERS[sniffed]
+    check_complete(path, suffix=suffix)   # a file cut short would give part of the scan, or a library's message
     module = importlib.import_module(f"airmat.calib.scan_readers.{name}")
-    return module.read(path, scan_index=scan_index)
+    # mesh_reader: the one reader whose library is told the format
+    cloud = module.read(path, scan_index=scan_index, **({"suffix": suffix} if name == "mesh_reader" else {}))
+    return check_plausible(cloud, path)
+
+
+#: leading bytes of the formats that have them -> the suffix they are read as
+_MAGIC = ((b"ply\n", ".ply"), (b"ply\r\n", ".ply"), (b"LASF", ".las"), (b"ASTM-E57", ".e57"), (b"glTF", ".glb"),
+          (b"# .PCD", ".pcd"))
+
+
+def sniff_format(path) -> str | None:
+    """The suffix of the format a file's leading bytes identify (PLY, LAS/LAZ, E57, GLB, PCD), or None.
+
+    A file is read by what it holds, not by what its name says: a binary PLY saved as ``.xyz`` would
+    otherwise be refused as a truncated column file.
+    """
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return None
+    return next((suffix for magic, suffix in _MAGIC if head.startswith(magic)), None)

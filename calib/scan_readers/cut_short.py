@@ -14,8 +14,8 @@ These checks run before them, on the file's bytes, one per format:
 - binary STL: the triangle count of its header against the file size; ASCII
   STL: its closing ``endsolid``; LAS (uncompressed): the point count and
   record size of its header against the file size (laspy reads the header);
-- OBJ (no counts): its last record; PTS/XYZ/TXT columns: nothing but the
-  line break below.
+- OBJ (no counts): its last record; PTS/XYZ/TXT columns: the line break
+  below, or a last row as long as the one before it.
 
 A text body (ascii PLY and PCD, OFF, OBJ, columns) must end with a line break:
 a file cut inside its last number looks complete otherwise ("f 12 345 6" of
@@ -42,7 +42,7 @@ __all__ = ["check_complete", "complete_binary_stl"]
 TAIL = 4096
 
 
-def check_complete(path) -> None:
+def check_complete(path, *, suffix: str | None = None) -> None:
     """Raise :class:`airmat.errors.InputError` (naming ``path``) when a mesh or scan file is cut short.
 
     Parameters
@@ -50,6 +50,8 @@ def check_complete(path) -> None:
     path : str or Path
         A mesh or scan file; the check is chosen by its suffix (PLY, OFF, STL, OBJ, ascii PCD, LAS,
         PTS/XYZ/TXT; other suffixes are not checked).
+    suffix : str, optional
+        The format, when the file's own suffix names another one.
 
     Raises
     ------
@@ -62,7 +64,7 @@ def check_complete(path) -> None:
     check = {".ply": _check_ply, ".off": _check_off, ".stl": _check_stl, ".obj": _check_obj,
              ".pcd": _check_pcd, ".las": _check_las, ".pts": _check_columns, ".xyz": _check_columns,
              ".txt": _check_columns}
-    fn = check.get(path.suffix.lower())
+    fn = check.get((suffix or path.suffix).lower())
     if fn is None:
         return
     try:
@@ -157,7 +159,22 @@ def _check_obj(path: Path) -> None:
 
 
 def _check_columns(path: Path) -> None:
+    """A column file may end without a line break when its last row is as complete as the one before:
+    as many fields, its last one with as many digits after the point (exporters print a fixed number of
+    decimals; a number cut short has fewer)."""
+    tail = _tail(path).rstrip(b" \t")
+    if not tail or tail.endswith((b"\n", b"\r")):
+        return
+    rows = [ln.replace(b",", b" ").replace(b";", b" ").split() for ln in tail.splitlines()[-3:] if ln.strip()]
+    if len(rows) >= 2 and len(rows[-1]) == len(rows[-2]) and _decimals(rows[-1][-1]) == _decimals(rows[-2][-1]):
+        return
     _ends_inside_a_line(path, path.suffix[1:].upper())
+
+
+def _decimals(token: bytes) -> int:
+    """Digits after the decimal point of a printed number (-1 without one)."""
+    mantissa = token.lower().split(b"e")[0]
+    return len(mantissa) - mantissa.index(b".") - 1 if b"." in mantissa else -1
 
 
 def _check_pcd(path: Path) -> None:

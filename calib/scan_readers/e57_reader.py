@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.calib.scan_readers.raw import RawCloud, library_message
+from airmat.calib.scan_readers.raw import RawCloud, check_step, library_message
 
 __all__ = ["read"]
 
@@ -46,28 +46,33 @@ def read(path: Path, *, scan_index: int | None = None) -> RawCloud:
             raise InputError(f"--scan-index {scan_index} out of range: the file holds {n} scan(s) "
                              f"(0..{n - 1})", path=path)
         indices = range(n) if scan_index is None else [scan_index]
-        parts = [_scan_points(e57, i, path) for i in indices]
+        parts, steps = zip(*(_scan_points(e57, i, path) for i in indices))
     finally:
         e57.close()
-    return RawCloud(vertices=parts[0] if len(parts) == 1 else np.concatenate(parts), units="m", n_scans=n)
+    return RawCloud(vertices=parts[0] if len(parts) == 1 else np.concatenate(parts), units="m", n_scans=n,
+                    step=max(steps))
 
 
 #: the cartesian coordinate fields, in output column order
 _XYZ = ("cartesianX", "cartesianY", "cartesianZ")
 
 
-def _scan_points(e57, i: int, path: Path) -> np.ndarray:
-    """Scan ``i``'s points in the file's frame (its pose applied), metres, invalid ones NaN."""
+def _scan_points(e57, i: int, path: Path) -> tuple[np.ndarray, float]:
+    """Scan ``i``'s points in the file's frame (its pose applied), metres, invalid ones NaN, and the step of its
+    stored coordinates (m; before the pose, which libE57 keeps in double precision)."""
     try:
         header = e57.get_header(i)
         if set(_XYZ) <= set(header.point_fields):
             xyz = _read_cartesian(e57, header)
+            step = _stored_step(header, xyz, path)
             if header.has_pose():
                 rot, shift = header.rotation_matrix, np.asarray(header.translation, float)
                 if not (np.array_equal(rot, np.eye(3)) and not shift.any()):
                     xyz = xyz @ rot.T
                     xyz += shift
-            return xyz
+            return xyz, step
+    except InputError:
+        raise
     except Exception as err:
         raise InputError(f"cannot read scan {i} of the E57 file: {library_message(err)}",
                          path=path) from None
@@ -79,7 +84,29 @@ def _scan_points(e57, i: int, path: Path) -> np.ndarray:
     if "cartesianX" not in data:
         raise InputError(f"scan {i} of the E57 file has no cartesian coordinates", path=path)
     # spherical scans: pye57 converts them and leaves out the records flagged invalid
-    return np.column_stack([data["cartesianX"], data["cartesianY"], data["cartesianZ"]]).astype(float)
+    return np.column_stack([data["cartesianX"], data["cartesianY"], data["cartesianZ"]]).astype(float), 0.0
+
+
+def _stored_step(header, xyz: np.ndarray, path: Path) -> float:
+    """Step of the stored x (m): the scale of scaled integers, the spacing of single floats at the scan's
+    largest coordinate; 0 for doubles. A step too coarse for any surface is refused here."""
+    from pye57 import libe57
+
+    node = libe57.StructureNode(header.points.prototype()).get(_XYZ[0])
+    if node.type() == libe57.NodeType.E57_SCALED_INTEGER:
+        step = float(libe57.ScaledIntegerNode(node).scale())
+        what = f"the E57 scan stores integers times its scale {step:g} m"
+    elif node.type() == libe57.NodeType.E57_FLOAT and \
+            libe57.FloatNode(node).precision() == libe57.FloatPrecision.E57_SINGLE:
+        with np.errstate(invalid="ignore"):
+            largest = float(np.nanmax(np.abs(xyz))) if np.isfinite(xyz).any() else 0.0
+        step = float(np.spacing(np.float32(largest)))
+        what = "stored as 32-bit floats far from the origin"
+    else:
+        return 0.0
+    check_step(xyz, step, path, what, "export it in double precision or re-centred (CloudCompare: "
+               "Edit > Apply transformation, then save as E57 or LAS)")
+    return step
 
 
 def _read_cartesian(e57, header) -> np.ndarray:

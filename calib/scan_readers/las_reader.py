@@ -2,7 +2,10 @@
 
 LAS stores integers with a scale and an offset per axis; laspy returns the
 scaled coordinates in float64. Surveys are georeferenced: the unit is the
-CRS's, taken as metres (pass ``--scan-units`` for a CRS in feet).
+linear unit of the CRS the file carries (a WKT VLR, LAS 1.4's way, or the
+GeoTIFF keys' ``ProjLinearUnitsGeoKey``; US state-plane CRSs are in US
+survey feet), metres when it names none. The scale is the coordinates' step
+(``Scan.quantization``): PDAL's default of 0.01 is a 1 cm grid.
 
 Only x, y, z are needed: in a LAZ of point format 6-10 (LAS 1.4, what
 scanners and photogrammetry write today) the fields are compressed in
@@ -16,18 +19,26 @@ arithmetic (``X * scale + offset`` in float64: the same bits).
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.calib.scan_readers.raw import RawCloud, library_message
+from airmat.units import SCAN_UNITS
+from airmat.calib.scan_readers.raw import RawCloud, check_step, library_message
+from airmat.calib.scan_readers.stated_units import unit_from_geokeys, unit_from_wkt
 
-__all__ = ["read"]
+__all__ = ["read", "crs_unit"]
+
+log = logging.getLogger(__name__)
+
+#: a scale above this (m) is worth a warning: its rounding is more than a scanner's noise
+_WARN_STEP = 1e-3
 
 
 def read(path: Path, *, scan_index=None) -> RawCloud:
-    """Scaled coordinates of every point record, float64, metres."""
+    """Scaled coordinates of every point record, float64, in the CRS's unit (metres when it names none)."""
     import laspy
 
     try:
@@ -44,7 +55,34 @@ def read(path: Path, *, scan_index=None) -> RawCloud:
     for j, name in enumerate("XYZ"):
         np.multiply(records[name], header.scales[j], out=xyz[:, j])
         xyz[:, j] += header.offsets[j]
-    return RawCloud(vertices=xyz, units="m")
+    units, step = crs_unit(header) or "m", float(np.max(np.abs(header.scales)))
+    check_step(xyz, step, path, f"the {path.suffix[1:].upper()} stores integers times its scale {step:g} {units}",
+               "write it with a finer scale (0.0001 m: PDAL writers.las scale_x=0.0001)", SCAN_UNITS[units])
+    metres = step * SCAN_UNITS[units]
+    if metres > _WARN_STEP:   # PDAL's default scale, 0.01: a centimetre grid
+        log.warning("%s: the %s stores integers times its scale %g %s, a %.3g mm grid: rounding adds %.2g mm of "
+                    "noise (sd step/sqrt(12)), which the fit's noise level and error bar include; a scale of "
+                    "0.0001 m keeps a scanner's precision", path, path.suffix[1:].upper(), step, units,
+                    metres * 1e3, metres * 1e3 / np.sqrt(12))
+    return RawCloud(vertices=xyz, units=units, step=step)
+
+
+def crs_unit(header) -> str | None:
+    """The linear unit of a LAS header's CRS (its WKT VLR, else its GeoTIFF keys), or None."""
+    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
+
+    vlrs = list(header.vlrs) + list(getattr(header, "evlrs", None) or [])
+    for vlr in vlrs:
+        if isinstance(vlr, WktCoordinateSystemVlr) and vlr.string:
+            unit = unit_from_wkt(vlr.string)
+            if unit is not None:
+                return unit
+    for vlr in vlrs:
+        if isinstance(vlr, GeoKeyDirectoryVlr):
+            unit = unit_from_geokeys([(k.id, k.value_offset) for k in vlr.geo_keys if k.tiff_tag_location == 0])
+            if unit is not None:
+                return unit
+    return None
 
 
 def _xyz_layers():

@@ -6,6 +6,7 @@ Binary PLY point clouds are read with numpy (:mod:`airmat.calib.scan_readers.ply
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 from pathlib import Path
 
@@ -16,13 +17,38 @@ from airmat.calib.scan_readers.obj_indices import check_obj_indices
 from airmat.calib.scan_readers.ply_header import ply_renamed_xyz, ply_vertex_float32, ply_xyz_fields
 from airmat.calib.scan_readers.ply_points import read_binary_points
 from airmat.calib.scan_readers.raw import RawCloud, library_message
+from airmat.calib.scan_readers.stated_units import unit_from_comments
 
 __all__ = ["read"]
 
 
-def read(path: Path, *, scan_index=None) -> RawCloud:
-    """Vertices (and faces) of a trimesh-readable file; a scene's parts are placed by their node poses."""
-    suffix = path.suffix.lower()
+def read(path: Path, *, scan_index=None, suffix: str | None = None) -> RawCloud:
+    """Vertices (and faces) of a trimesh-readable file; a scene's parts are placed by their node poses.
+
+    ``suffix`` is the format when the file's name says another one (a PLY named ``.xyz``). The unit is
+    the one an exporter's comment states (OBJ ``# File units = inches``, PLY ``comment Units: cm``), if any.
+    """
+    suffix = (suffix or path.suffix).lower()
+    cloud = _read(path, suffix)
+    units = _comment_unit(path, suffix)
+    return cloud if units is None else dataclasses.replace(cloud, units=units)
+
+
+def _comment_unit(path: Path, suffix: str) -> str | None:
+    """The unit named in an OBJ's leading ``#`` lines or a PLY header's ``comment``/``obj_info`` lines."""
+    if suffix not in (".obj", ".ply"):
+        return None
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 14).decode("utf-8", errors="replace")
+    if suffix == ".ply":
+        head = head[:max(head.find("end_header"), 0)]
+        lines = [ln for ln in head.splitlines() if ln.startswith(("comment", "obj_info"))]
+    else:
+        lines = [ln for ln in head.splitlines() if ln.lstrip().startswith("#")]
+    return unit_from_comments(lines)
+
+
+def _read(path: Path, suffix: str) -> RawCloud:
     float32 = suffix in (".stl", ".glb", ".gltf")  # these formats store 32-bit floats only
     stream = None
     if suffix == ".obj":

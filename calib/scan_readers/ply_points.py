@@ -83,8 +83,9 @@ def read_binary_points(path: Path) -> RawCloud | None:
                          f"the body has {path.stat().st_size - body} bytes", path=path)
     data = np.fromfile(path, dtype=dtype, count=count, offset=body)
     xyz = np.empty((count, 3))
-    for j, name in enumerate(xyz_fields):
-        xyz[:, j] = data[name]
+    with np.errstate(invalid="ignore"):   # a damaged body's signalling NaNs: judged by read_cloud, not warned
+        for j, name in enumerate(xyz_fields):
+            xyz[:, j] = data[name]
     return RawCloud(vertices=xyz, float32=dtype[xyz_fields[0]].itemsize == 4)
 
 

@@ -142,6 +142,8 @@ def test_a_point_cloud_cut_short_is_refused(tmp_path, suffix, keep):
     path = tmp_path / f"cut.{suffix}"
     n = len(data) + keep if keep < 0 else int(len(data) * keep)
     n -= data[n - 1:n] == b"\n"   # inside a line: a columns file cut at a line's end looks whole (documented)
+    if suffix == "xyz" and data[n:n + 1] == b"\n":
+        n -= 2   # a whole last row without its line break is complete too (as long as the row before it)
     path.write_bytes(data[:n])
     with pytest.raises(InputError, match=f"truncated {suffix.upper()}") as err:
         read_scan(path)

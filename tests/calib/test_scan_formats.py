@@ -292,8 +292,8 @@ def test_text_layouts_polars_reads(tmp_path, text):
 
     path = tmp_path / "c.txt"
     path.write_bytes(text.encode())
-    skip, delimiter, width = _layout(text.splitlines(), path)
-    fast = read_columns_fast(path, skip, delimiter, width)
+    layout = _layout(text.splitlines(), path)
+    fast = read_columns_fast(path, layout.skip, layout.delimiter, layout.width, layout.usecols)
     want = [[1, 2, 3], [4, 5, 6], [7, 8, 9]]
     assert fast is not None and fast.tolist() == want and fast.flags["C_CONTIGUOUS"]
     assert read_cloud(path).vertices.tolist() == want
