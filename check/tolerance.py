@@ -26,9 +26,13 @@ e ~ N(e₀, A Σ Aᵀ) gives, cheaply:
   ``(Aᵀ A Σ)_ii``, which sums to the total (a string's share can be negative when it is
   anti-correlated with the others in the posterior).
 
-Validity is checked, not assumed: ``validate`` full samples (:func:`airmat.check.monte_carlo.draw`
-plus the cut error, inflated the check's way: from the flat mattress, or a refined design's
-open-loop equilibrium) are compared with the prediction A δl* for their own δl*. The relative
+Validity is checked, not assumed: ``validate`` full nonlinear samples
+(:func:`airmat.check.monte_carlo.draw` plus the cut error) are compared with the prediction
+A δl* for their own δl*. Each is the equilibrium carried on from the median run's to its own
+lengths (:func:`airmat.inflation.simulate.inflate_from`: Newton, no ramp), the branch the
+linear model describes, at a fraction of an inflation each. A Monte-Carlo from the flat
+mattress (``--samples K``) also samples other arrangements of the wrinkles, which no
+first-order model sees. The relative
 error is ‖(e_s − e₀) − A δl*_s‖ / ‖e_s − e₀‖ over every sample and vertex. Above
 :data:`RELIABLE_ERROR` (25 %) the result says unreliable and recommends ``--samples K``:
 a 25 % error of the spread is the sampling error of a 95 % quantile from about 16 full
@@ -350,7 +354,7 @@ def _model_draws(base, a, cov, n: int, seed: int, chunk: int = 500) -> tuple:
 
 def _validate(design, check_run, strings, a, n: int, seed: int, cov: LengthCovariance, params, workers,
               scheduler) -> Validation:
-    """``n`` full samples inflated the check's way against the prediction A δl* for their own δl*."""
+    """``n`` full samples, carried on from the median equilibrium, against the prediction A δl* for their δl*."""
     from airmat.inflation.simulate import inflate_many
 
     lengths, med = check_run.lengths, check_run.runs["median"]
@@ -362,7 +366,7 @@ def _validate(design, check_run, strings, a, n: int, seed: int, cov: LengthCovar
     rest = lengths.to_simulated(np.maximum(dr.length + cut, 0.0))
     started = time.perf_counter()
     runs = inflate_many(med.inflation.mesh, [replace(strings, rest=r) for r in rest], params=params,
-                        workers=workers, scheduler=scheduler, start=check_run.open_loop, desc="tolerance check")
+                        workers=workers, scheduler=scheduler, start=med.inflation, desc="tolerance check")
     seconds = time.perf_counter() - started
     approx = design.approx
     actual = np.stack([deviation(r, approx.xyz, approx.uv, check_run.surface).aligned for r in runs])
