@@ -152,7 +152,7 @@ _D_RANGE = (PAPER_D - 3 * PAPER_D_SD, PAPER_D + 3 * PAPER_D_SD)
 _FAR = 2.0
 
 
-def predicted_kappa_range(l: float, L: float, offset: float = 0.0) -> tuple[float, float]:
+def predicted_kappa_range(l: float, L: float) -> tuple[float, float]:
     """The curvatures (1/m) Equation 3 gives a string ``l`` over ``L`` (m) for Delta and d in the paper's
     values +- 3 nominal standard deviations: the range a scan in the right unit falls in."""
     D, d = np.meshgrid(np.linspace(*_DELTA_RANGE, 5), np.linspace(*_D_RANGE, 5))
@@ -189,6 +189,8 @@ def check_unit(radius: float, unit: str, *, l: float, L: float, offset: float = 
     if not np.isfinite(radius) or radius <= 0:
         return
     k_lo, k_hi = predicted_kappa_range(l, L)
+    if not k_hi > 0:   # a string as long as the span: Equation 3 predicts a flat specimen, no scale to compare
+        return
     kappa = 1.0 / (radius + offset) if radius + offset > 0 else np.inf
     thin = radius + offset < _THICKNESS_MIN
     far = kappa > _FAR * k_hi or kappa < k_lo / _FAR

@@ -40,6 +40,7 @@ from airmat.calib.cylinder_irls import kappa_standard_error, polish
 from airmat.calib.cylinder_lsq import arc_from_local, distance_from_local, refine
 from airmat.calib.cylinder_refine import full_resolution_fit, surface_spread
 from airmat.calib.scan_noise import local_noise
+from airmat.calib.scan_readers.raw import MIN_STEPS_ACROSS
 from airmat.calib.point_normals import normals_knn
 from airmat.calib.scan_prep import specimen_candidates, specimen_voxel
 from airmat.calib.voxel_grid import voxel_cloud
@@ -193,7 +194,8 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
         Rounding to it is noise of standard deviation ``step / sqrt(12)``:
         the noise level is at least that, so the fit and its standard error
         account for it by their effect, not the step alone; refused when
-        fewer than 50 steps span the scan (no surface is left).
+        fewer than :data:`airmat.calib.scan_readers.raw.MIN_STEPS_ACROSS`
+        steps span the scan (no surface is left).
     max_extent : float
         Refuse when the fitted face (its inliers' robust bounding diagonal)
         spans more than this (m): no specimen is that large, a survey tile
@@ -228,7 +230,7 @@ def fit_cylinder(points, *, seed=0, noise: float | None = None, min_inlier_fract
     # grid of points flattens toward 0 (a LAS at 1 cm scale looked like 0.002 mm of noise)
     noise_level = float(noise) if noise is not None else \
         max(est.sigma, quantization / np.sqrt(12), 1e-6 * diag)
-    if quantization * _MIN_STEPS_ACROSS > diag:
+    if quantization * MIN_STEPS_ACROSS > diag:
         raise InputError(f"coordinates lost precision: stored as 32-bit floats far from the origin (or on a "
                          f"coarse grid), their step {quantization * 1e3:.3g} mm across a scan {diag:.3g} m wide "
                          f"leaves no surface to fit (export in float64 or re-centred)", quantization=quantization,
@@ -279,9 +281,6 @@ def _start(cand_sub, n_points, voxel, sigma, diag, max_planarity, rng):
         stage = refine(down[init.inliers], init.frame, f_scale=sigma, max_nfev=100)
     return init, stage
 
-
-#: fewest steps of the stored coordinates (32-bit floats, an integer scale) across the scan
-_MIN_STEPS_ACROSS = 50
 
 #: normal spread (degrees) below which a specimen is initialized as nearly flat
 _FLAT_DEG = 20.0

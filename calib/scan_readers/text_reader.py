@@ -85,8 +85,8 @@ def _check_blocks(counts, lines, skip, path) -> None:
     for (i, line), end in zip(counts, ends):
         rows = sum(1 for ln in lines[i + 1:end] if ln.strip() and not ln.lstrip().startswith(("#", "//")))
         if rows != int(line):
-            raise InputError(f"PTS block at line {skip + i + 1} declares {int(line)} points, holds {rows} "
-                             f"(a block cut short, or a number on a line of its own?)", path=path)
+            raise InputError(f"the block of points counted on line {skip + i + 1} declares {int(line)} points, "
+                             f"holds {rows} (a block cut short, or a number on a line of its own?)", path=path)
 
 
 def read_columns_fast(path: Path, skip: int, delimiter: str | None, width: int, usecols=(0, 1, 2), *,
