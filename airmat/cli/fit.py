@@ -33,8 +33,9 @@ def add_parser(sub, parents):
 def add_scan_options(p, *, index=True):
     """--scan-units (shared with ``calibrate``) and --scan-index."""
     p.add_argument("--scan-units", choices=sorted(SCAN_UNITS), default=None,
-                   help="unit of the scan's coordinates (default: metres for E57 and LAS/LAZ, "
-                        "whose formats fix it; millimetres otherwise)")
+                   help="unit of the scan's coordinates (default: the unit the file states: E57 in metres, "
+                        "LAS/LAZ in its CRS's unit (metres without one), an exporter's units comment in OBJ "
+                        "or PLY; millimetres otherwise)")
     if index:
         p.add_argument("--scan-index", type=int, default=None, metavar="N",
                        help="multi-scan E57: fit scan N only (an index from 0); default: all scans merged with "
