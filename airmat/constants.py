@@ -1,4 +1,4 @@
-"""The paper's values (Todo et al., IASS 2024, §2.2 and §4), in SI units: one home for each.
+"""The paper's values (Todo et al., IASS 2024, §2.2 and §4) and the workshop's defaults, in SI units.
 
 Equation 3's calibration of the paper's mattresses: string ends a geodesic
 distance L = 300 mm apart, each slipping Δ = 18 mm toward the other, a
@@ -14,7 +14,7 @@ Examples
 """
 
 __all__ = ["PAPER_L", "PAPER_DELTA", "PAPER_D", "PAPER_DELTA_SD", "PAPER_D_SD",
-           "SMALL_MATTRESS", "LARGE_MATTRESS"]
+           "SMALL_MATTRESS", "LARGE_MATTRESS", "CUT_TOLERANCE"]
 
 PAPER_L = 0.300         #: geodesic distance L between a string's ends (m)
 PAPER_DELTA = 0.018     #: slip Δ of each string end toward the other (m)
@@ -24,3 +24,7 @@ PAPER_D_SD = 0.005      #: nominal 1-sigma of d without a calibration (m), state
 
 SMALL_MATTRESS = (0.83, 0.74)  #: (W, H) of the paper's small mattress (m)
 LARGE_MATTRESS = (2.60, 1.60)  #: (W, H) of the paper's large mattress (m)
+
+#: default cut tolerance (m): a string re-tied at the same nodes whose length changes by at most this
+#: is kept as it is (``airmat retie --cut-tolerance-mm``)
+CUT_TOLERANCE = 1e-3

@@ -12,7 +12,7 @@ Prints Markdown tables. Usage::
 
     .venv/bin/python bench/bench_calibration.py                  # the full benchmark
     .venv/bin/python bench/bench_calibration.py --points 20000 --model-n 2000   # smaller
-    .venv/bin/python bench/bench_calibration.py --quick     # a smoke run: 4 specimens x 5000 points, 300 MCMC steps
+    .venv/bin/python bench/bench_calibration.py --quick     # a smoke run: 4 specimens x 20000 points, 300 MCMC steps
 """
 
 from __future__ import annotations
@@ -93,10 +93,10 @@ def main(argv=None) -> int:
     ap.add_argument("--max-steps", type=int, default=4000, help="cap of the MCMC chain (calibrate's max_steps)")
     ap.add_argument("--skip-calibration", action="store_true", help="only the model comparison")
     ap.add_argument("--quick", action="store_true",
-                    help="a smoke run: 4 specimens x 5000 points, 300 MCMC steps (not converged), 1000 elements")
+                    help="a smoke run: 4 specimens x 20000 points, 300 MCMC steps (not converged), 1000 elements")
     args = ap.parse_args(argv)
     if args.quick:
-        args.points, args.specimens, args.model_n, args.repeats, args.max_steps = 5000, 4, 1000, 1, 300
+        args.points, args.specimens, args.model_n, args.repeats, args.max_steps = 20000, 4, 1000, 1, 300
 
     print("## Equation 3: vectorized `kappa1` vs scalar `brentq` loop\n")
     print("| n | vectorized (s) | brentq loop (s) | speed-up | max rel. diff | one (16 x 12) MCMC call (ms) |")

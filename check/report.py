@@ -149,6 +149,10 @@ def check_dict(check) -> dict:
         doc["tolerance"] = check.tolerance.block()
     # the one field that differs between two runs of the same inputs: wall-clock seconds per run
     doc["timings_s"] = {k: round(r.inflation.seconds, 3) for k, r in check.runs.items()}
+    if getattr(check, "tolerance", None) is not None:       # wall-clock seconds live in timings_s only
+        doc["timings_s"]["tolerance"] = round(check.tolerance.seconds, 3)
+        if check.tolerance.validation is not None:
+            doc["timings_s"]["tolerance_validation"] = round(check.tolerance.validation.seconds, 3)
     if check.monte_carlo is not None:
         doc["timings_s"]["monte_carlo_runs"] = round(check.monte_carlo.seconds, 3)
     return finish(doc)

@@ -230,7 +230,7 @@ class LinearTolerance(Summarized):
                "band_normal_mm": {"p50": spread(self.band_normal[0]), "p95": spread(self.band_normal[1])},
                "distance_q95_mm": spread(self.per_vertex_q[1]),
                "rms_mm": {"median": round(st["rms_median"] * 1e3, 3), "p95": round(st["rms_p95"] * 1e3, 3)},
-               "draws": int(self.rms.size), "seed": self.seed, "seconds": round(self.seconds, 3),
+               "draws": int(self.rms.size), "seed": self.seed,
                "sensitive_strings": [{"id": self.ids[i], "variance_share": round(float(f), 4)}
                                      for i, f in zip(idx, share)]}
         if self.tolerance is not None:
@@ -239,7 +239,7 @@ class LinearTolerance(Summarized):
         out["validation"] = None if v is None else {
             "samples": v.samples, "seed": v.seed, "converged": int(np.count_nonzero(v.converged)),
             "relative_error": None if not np.isfinite(v.relative_error) else round(v.relative_error, 4),
-            "threshold": v.threshold, "seconds": round(v.seconds, 3),
+            "threshold": v.threshold,
             "rms_mm": {"inflated": [round(float(r) * 1e3, 3) for r in v.rms_actual],
                        "linear": [round(float(r) * 1e3, 3) for r in v.rms_linear]}}
         return out

@@ -29,9 +29,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from airmat.constants import CUT_TOLERANCE
 from airmat.errors import InputError
 
-# numpy and scipy load inside the functions: `airmat --help` reads CUT_TOLERANCE while building its parser
+# numpy and scipy load inside the functions
 
 __all__ = ["RetieStep", "RetiePlan", "retie_plan", "counts_text", "ACTIONS", "LABELS", "CUT_TOLERANCE"]
 
@@ -39,8 +40,6 @@ __all__ = ["RetieStep", "RetiePlan", "retie_plan", "counts_text", "ACTIONS", "LA
 ACTIONS = ("keep", "recut", "move", "remove", "add")
 #: how each category is written for people (screen, figure legend)
 LABELS = {"keep": "keep", "recut": "re-cut", "move": "move", "remove": "remove", "add": "add"}
-#: default cut tolerance (m): a length change up to this keeps a string at the same nodes as it is
-CUT_TOLERANCE = 1e-3
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ command, and ignored: the re-tie list has no random step."""
 def add_parser(sub, parents):
     import argparse
 
-    from airmat.design.retie import CUT_TOLERANCE
+    from airmat.constants import CUT_TOLERANCE
     from airmat.units import M_TO_MM
 
     p = sub.add_parser("retie", parents=parents,

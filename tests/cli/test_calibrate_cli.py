@@ -129,11 +129,14 @@ def test_calibrate_bad_input_exit_2_one_line_nothing_written(synth_set, tmp_path
         assert not any(p.name.startswith(".out.staging") for p in tmp_path.iterdir())
 
 
-def test_calibrate_needs_out(capsys):
-    with pytest.raises(SystemExit) as exc:
-        main(["calibrate", "m.csv"])
-    assert exc.value.code == 2
-    assert "--out" in capsys.readouterr().err
+def test_calibrate_without_out_writes_to_out_calibrate_and_a_missing_manifest_writes_nothing(capsys, tmp_path,
+                                                                                            monkeypatch):
+    # --out is optional in every command (default out/<command>); bad input still writes nothing there
+    monkeypatch.chdir(tmp_path)
+    assert main(["calibrate", "m.csv"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "m.csv" in err[0], err
+    assert not (tmp_path / "out").exists()
 
 
 def test_calibrate_fit_that_did_not_converge_is_an_error_naming_the_scan(synth_set, tmp_path, capsys,
