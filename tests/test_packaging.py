@@ -106,18 +106,29 @@ def _venv_with_the_wheel(wheel: Path, where: Path) -> Path:
     return venv
 
 
-@pytest.mark.slow
-def test_the_wheel_runs_from_a_clean_virtualenv_outside_the_repository(wheel, tmp_path):
-    venv = _venv_with_the_wheel(wheel, tmp_path)
-    work = tmp_path / "work"
-    work.mkdir()
+@pytest.fixture(scope="module")
+def clean_venv(wheel, tmp_path_factory) -> Path:
+    """A virtual environment outside the repository with only the wheel's airmat."""
+    return _venv_with_the_wheel(wheel, tmp_path_factory.mktemp("clean"))
+
+
+def _runner(venv: Path, work: Path):
+    """Run a command in ``work`` with the clean environment's bin first on PATH; return its stdout."""
+    work.mkdir(exist_ok=True)
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
     env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
 
     def run(*cmd):
-        out = subprocess.run(list(cmd), cwd=work, env=env, capture_output=True, text=True, timeout=600)
+        out = subprocess.run(list(cmd), cwd=work, env=env, capture_output=True, text=True, timeout=900)
         assert out.returncode == 0, f"{cmd}:\n{out.stdout[-2000:]}\n{out.stderr[-2000:]}"
         return out.stdout
+    return run
+
+
+@pytest.mark.slow
+def test_the_wheel_runs_from_a_clean_virtualenv_outside_the_repository(clean_venv, tmp_path):
+    venv = clean_venv
+    run = _runner(venv, tmp_path / "work")
 
     run("airmat", "synth", "specimens", "--seed", "1")
     fit = run("airmat", "fit", "specimens/specimen_00.ply")
@@ -141,3 +152,24 @@ print(json.dumps({"airmat": airmat.__file__, "calib": airmat.calib.__file__, "sy
     for key in ("airmat", "calib", "synthetic"):
         assert got[key].startswith(str(venv)), got      # the wheel's copy, not the repository's
     assert got["target"].startswith("<Target vault1:") and not got["leaked"] and got["facade"]
+
+
+@pytest.mark.slow
+def test_the_readme_python_example_runs_from_the_clean_virtualenv_and_writes_what_it_says(clean_venv, tmp_path):
+    import re
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    assert "import airmat" in code
+    stdout = _runner(clean_venv, tmp_path)(str(clean_venv / "bin" / "python"), "-c", code)
+    # print(checked): the check's short summary, one line, with each run's deviation from Ŝ
+    line = stdout.strip().splitlines()[-1]
+    assert line.startswith("<DesignCheck: median ") and " lo95 " in line and " hi95 " in line, line
+    assert len(line) < 400
+    pct = float(re.search(r"median [0-9.]+ mm RMS, [0-9.]+ mm max \(([0-9.]+) % of the diagonal\)", line).group(1))
+    assert 0 < pct <= 1.0          # a refined design lands within 1 % of the diagonal from Ŝ
+    out = tmp_path / "out" / "design"
+    for name in ("design.json", "pattern.dxf", "design.3dm", "cutting_list.csv", "report.html"):
+        assert (out / name).stat().st_size > 0, name
+    # the README shows the output it prints
+    assert line in text
