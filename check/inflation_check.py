@@ -175,7 +175,7 @@ class CheckRun(Summarized):
     to_target : airmat.check.compare.TargetDistance or None
         The aligned named face's distance to the user's target S (closest points,
         :func:`airmat.check.compare.distance_to_target`); None when the design does not
-        keep S (read from a folder: ``design.approx.target`` is None).
+        keep S (``design.approx.target`` is None: a folder written before ``target.ply``).
     """
 
     which: str
@@ -215,6 +215,9 @@ class DesignCheck(Summarized):
         carried on from; None: every run was inflated from the flat mattress.
     tolerance : airmat.check.tolerance.LinearTolerance or None
         The tolerance to first order (:func:`airmat.check.tolerance.tolerance` of this check), when asked for.
+    approx_to_target : airmat.check.compare.TargetDistance or None
+        Ŝ's own distance to the user's target S (its vertices, % of Ŝ's diagonal), the floor
+        under each run's ``to_target``; None when the design does not keep S.
     """
 
     design: object
@@ -225,6 +228,7 @@ class DesignCheck(Summarized):
     monte_carlo: object = None
     open_loop: Inflation | None = None
     tolerance: object = None
+    approx_to_target: TargetDistance | None = None
 
 
     def _summary(self):
@@ -380,7 +384,8 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         log.info("Monte-Carlo, %d samples: RMS median %.1f mm, 95th percentile %.1f mm", samples,
                  st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
     return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths,
-                       monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh, levels=()))
+                       monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh, levels=()),
+                       approx_to_target=to_target(design.approx.xyz))
 
 
 def _target_distance(design):

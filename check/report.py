@@ -13,8 +13,9 @@ with a Monte-Carlo, Ŝ coloured by the 95 % quantile on the hidden layer ``monte
 ``inflate.json``'s ``deviation {rms_mm, max_mm, rms_pct_diag}`` is measured on the named
 face (``deviation.surface``, see :mod:`airmat.check.compare`), with every face under
 ``deviation.surfaces`` for reference; ``to_target`` is the same aligned face's distance to the
-user's target S (``deviation.to_target`` per run), or a note when the design was read from a
-folder that does not keep S. ``inflated.ply`` is the whole inflated mattress moved
+user's target S (``deviation.to_target`` per run) with Ŝ's own distance to S (``approx``), or a
+note when the design was read from a folder written before ``target.ply``, which does not keep S.
+``inflated.ply`` is the whole inflated mattress moved
 into Ŝ's frame by the named face's alignment, so it overlays ``approx_surface.ply``.
 
 :func:`deviation_figure` returns the figure of deviation.png as a
@@ -100,9 +101,9 @@ def _run_dict(run) -> dict:
                        "stages": int(inf.stages), "message": inf.message}}
 
 
-#: inflate.json's ``to_target`` when the design does not keep its target S (read from a design folder)
-TO_TARGET_NOTE = {"note": "the design was read from its folder, which does not keep the target S: only the "
-                          "deviation from S-hat (approx_surface) is measured"}
+#: inflate.json's ``to_target`` when the design does not keep its target S (a folder without target.ply)
+TO_TARGET_NOTE = {"note": "the design was read from a folder without target.ply, which does not keep the target "
+                          "S: only the deviation from S-hat (approx_surface) is measured"}
 
 
 def check_dict(check) -> dict:
@@ -122,11 +123,13 @@ def check_dict(check) -> dict:
                    "kappa_realized_free on the face opposite each dash's string; inflated.ply in "
                    "approx_surface's frame",
            **_run_dict(med)}
+    approx = getattr(check, "approx_to_target", None)
     doc["to_target"] = TO_TARGET_NOTE if med.to_target is None else {
         **_dev_dict(med.to_target), "surface": check.surface,
+        **({} if approx is None else {"approx": _dev_dict(approx)}),
         "note": "distance of the same aligned face to the closest points of the user's target S (its rim "
-                "included), % of approx_surface's diagonal; deviation is to S-hat, the near-developable surface "
-                "the mattress can make"}
+                "included), % of approx_surface's diagonal; approx: S-hat's own distance to S; deviation is to "
+                "S-hat, the near-developable surface the mattress can make"}
     doc["envelope"] = {k: _run_dict(r)["deviation"] for k, r in check.runs.items() if k != "median"}
     doc["envelope_solver"] = {k: _run_dict(r)["solver"] for k, r in check.runs.items() if k != "median"}
     doc["dashes"] = [{"id": s.dash.id, "side": s.side, "kappa_target_per_m": round(float(s.kappa), 4),
@@ -262,8 +265,9 @@ def summary_text(doc: dict, out) -> str:
              f"({dev['rms_pct_diag']:.2f}% of the diagonal), max {dev['max_mm']:.1f} mm"]
     tt = doc.get("to_target", {})
     if "rms_mm" in tt:
+        own = f"; Ŝ itself RMS {tt['approx']['rms_mm']:.1f} mm from S" if "approx" in tt else ""
         lines.append(f"  distance to the target S (same face): RMS {tt['rms_mm']:.1f} mm "
-                     f"({tt['rms_pct_diag']:.2f}% of the diagonal), max {tt['max_mm']:.1f} mm")
+                     f"({tt['rms_pct_diag']:.2f}% of the diagonal), max {tt['max_mm']:.1f} mm{own}")
     ref = {k: v for k, v in dev.get("surfaces", {}).items() if k != dev.get("surface")}
     if ref:
         lines.append("  other faces (reference): " + ", ".join(

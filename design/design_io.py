@@ -1,12 +1,16 @@
 """A design's folder, written and read back: the workshop files and the files the check reads.
 
 :func:`write_design` writes every file of a :class:`~airmat.design.pipeline.DesignResult`
-into a folder (``design.json``, ``approx_surface.ply`` / ``.obj``,
+into a folder (``design.json``, ``approx_surface.ply`` / ``.obj``, ``target.ply``,
 ``calibration_samples.npz``, ``pattern.svg``, ``pattern.dxf``,
 ``cutting_list.csv``, ``preview.png``, ``design.3dm`` for Rhino); :func:`read_design` builds the same
 ``DesignResult`` from such a folder, so that the check takes a design from
 memory or from files alike. Files are in millimetres (lengths rounded to
 0.01 mm in ``design.json``); the library side is SI.
+
+``target.ply`` keeps the user's target S (float32 mm, in Ŝ's frame), so that the
+check of a folder measures the inflated face's distance to S too; a folder
+written before it existed reads with ``approx.target`` None.
 
 ``calibration_samples.npz`` keeps the posterior samples (``delta_m``, ``d_m``,
 ``L_m``; ``sigma_per_m`` when the calibration measured the scatter σ) the string
@@ -35,12 +39,15 @@ from airmat.design.mattress import Mattress
 from airmat.design.pattern import Dash, Pattern, TensionString
 from airmat.design.pipeline import DesignParams, DesignResult
 from airmat.design.surface import ApproxSurface
-from airmat.design.surface_io import read_approx_surface, write_approx_surface
+from airmat.design.surface_io import (read_approx_surface, read_target_surface, write_approx_surface,
+                                      write_target_surface)
 
-__all__ = ["write_design", "read_design", "document", "report_dict", "OUTPUT_FILES", "LENGTH_KEYS"]
+__all__ = ["write_design", "read_design", "document", "report_dict", "OUTPUT_FILES", "TARGET_FILE", "LENGTH_KEYS"]
 
-OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "calibration_samples.npz",
+OUTPUT_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "target.ply", "calibration_samples.npz",
                 "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png", "design.3dm")
+#: the user's target S in a design folder (absent in a folder written before it, or by another tool)
+TARGET_FILE = "target.ply"
 #: the three string lengths of every dash in design.json ``l_mm``
 LENGTH_KEYS = ("median", "lo95", "hi95")
 
@@ -67,7 +74,8 @@ def report_dict(report) -> dict:
 def approx_to_target(approx) -> dict:
     """Ŝ's distance to the user's target S (closest points on S's mesh): RMS, max (mm) and % of Ŝ's diagonal.
 
-    Only while the design is in memory: a design folder keeps Ŝ, not S.
+    Only when the design has S (``approx.target``): one designed in memory, or read from a
+    folder that keeps ``target.ply``.
     """
     from airmat.design.closest_point import MeshProjector
 
@@ -127,6 +135,8 @@ def write_design(result: DesignResult, folder, *, papers: tuple = ()) -> dict:
     doc = document(result)
     write_design_json(folder / "design.json", doc)
     write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
+    if a.target is not None:        # a design read from a folder without target.ply has none
+        write_target_surface(folder / TARGET_FILE, a.target)
     _write_samples(folder / "calibration_samples.npz", result.calibration)
     write_svg(folder / "pattern.svg", doc)
     write_dxf(folder / "pattern.dxf", doc)
@@ -319,10 +329,11 @@ def _refine_block(doc: dict, path: Path, width: float, height: float) -> tuple:
 def read_design(folder) -> DesignResult:
     """Read a folder written by :func:`write_design` (``airmat design``) into a DesignResult.
 
-    Ŝ comes from ``approx_surface.ply`` (float32 mm in the file), the strings
-    from ``design.json`` (0.01 mm), the calibration samples from
-    ``calibration_samples.npz`` (exact). ``mfield``, ``stripes`` and Ŝ's
-    ``target``, ``relax`` and ``curvature`` are None: the files do not keep them.
+    Ŝ comes from ``approx_surface.ply`` (float32 mm in the file), the target S
+    from ``target.ply`` (float32 mm; ``approx.target`` is None without it, in a
+    folder written before it), the strings from ``design.json`` (0.01 mm), the
+    calibration samples from ``calibration_samples.npz`` (exact). ``mfield``,
+    ``stripes`` and Ŝ's ``relax`` and ``curvature`` are None: the files do not keep them.
     A folder written by another tool needs only ``mattress``, ``calibration.delta_mm``,
     ``dashes`` and ``approx_surface.ply``: Ŝ's ``report`` is then None and the
     parameters are the defaults.
@@ -370,8 +381,10 @@ def read_design(folder) -> DesignResult:
                       notes=tuple(summary.get("notes", ())), coverage=summary.get("coverage"))
     refine, open_loop = _refine_block(doc, path, mattress.width, mattress.height)
     xyz, uv, faces = read_approx_surface(folder / "approx_surface.ply")
-    approx = ApproxSurface(target=None, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
+    name = str(doc.get("name", folder.name))
+    target = read_target_surface(folder / TARGET_FILE, name=name) if (folder / TARGET_FILE).is_file() else None
+    approx = ApproxSurface(target=target, mattress=mattress, xyz=xyz, uv=uv, faces=faces, relax=None, curvature=None,
                            report=_report(doc, path))
-    return DesignResult(name=str(doc.get("name", folder.name)), approx=approx, pattern=pattern,
+    return DesignResult(name=name, approx=approx, pattern=pattern,
                         calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)),
                         source=str(folder), refine=refine, open_loop=open_loop)

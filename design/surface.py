@@ -36,8 +36,9 @@ class ApproxSurface:
     """Ŝ: the near-developable surface the mattress can make, with its curvature and report.
 
     A Ŝ read back from a design folder (:func:`airmat.design.design_io.read_design`)
-    has ``target``, ``relax`` and ``curvature`` None: the files keep Ŝ, its Ω
-    coordinates and the report, not the relaxation's history.
+    has ``relax`` and ``curvature`` None: the files keep Ŝ, its Ω coordinates, the
+    target S (``target.ply``; ``target`` is None for a folder written before it) and
+    the report, not the relaxation's history.
 
     Attributes
     ----------

@@ -1,8 +1,11 @@
-"""Files of the near-developable surface Ŝ, with each vertex's position on Ω.
+"""Files of the near-developable surface Ŝ, with each vertex's position on Ω, and of the target S.
 
 ``approx_surface.ply``: binary PLY, vertex ``x, y, z`` (mm) plus the Ω
 coordinates ``u_mm, v_mm`` of every vertex; ``approx_surface.obj``: the
-same mesh with ``vt`` = (u / W, v / H). The library side is in metres.
+same mesh with ``vt`` = (u / W, v / H). ``target.ply``: the user's target S,
+binary PLY, vertex ``x, y, z`` (mm), in the frame Ŝ is in (Ŝ was relaxed onto
+S where S is: one frame for both). Coordinates are float32 in the files; the
+library side is in metres.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from airmat.errors import InputError
 from airmat.units import M_TO_MM, MM
 from airmat.calib.scan_readers.cut_short import check_complete
 
-__all__ = ["write_approx_surface", "read_approx_surface"]
+__all__ = ["write_approx_surface", "read_approx_surface", "write_target_surface", "read_target_surface"]
 
 
 def write_approx_surface(folder, xyz, uv, faces, *, width, height, stem="approx_surface"):
@@ -79,3 +82,52 @@ def read_approx_surface(path):
         raise InputError(f"not an airmat approx_surface.ply (needs vertex properties u_mm, v_mm): {exc}",
                          path=path) from exc
     return np.asarray(mesh.vertices, float) * MM, uv, np.asarray(mesh.faces)
+
+
+def write_target_surface(path, target) -> None:
+    """Write the target S as ``target.ply``: binary PLY, vertex ``x, y, z`` (float32 mm), triangles.
+
+    Parameters
+    ----------
+    path : str or Path
+    target : airmat.design.target.Target
+        S (m), in the frame Ŝ is in (that of the target the design was relaxed onto).
+    """
+    mesh = trimesh.Trimesh(np.asarray(target.vertices) * M_TO_MM, np.asarray(target.faces), process=False)
+    atomic_write_bytes(Path(path), trimesh.exchange.ply.export_ply(mesh, encoding="binary", include_attributes=False))
+
+
+def read_target_surface(path, *, name: str = "target"):
+    """Read a ``target.ply`` written by :func:`write_target_surface`.
+
+    Parameters
+    ----------
+    path : str or Path
+    name : str, default "target"
+        The target's name (a design folder's: the design's).
+
+    Returns
+    -------
+    airmat.design.target.Target
+        S in metres (float32 mm in the file), in Ŝ's frame; units ``"mm"``.
+
+    Raises
+    ------
+    airmat.errors.InputError
+        When the file is missing, unreadable, cut short or not a valid target mesh (naming ``path``).
+    """
+    from airmat.design.target import Target
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found (expected the target.ply of a design folder)", path=path)
+    check_complete(path)
+    try:
+        mesh = trimesh.load(path, file_type="ply", process=False, force="mesh")
+        vertices, faces = np.asarray(mesh.vertices, float), np.asarray(mesh.faces)
+    except (KeyError, ValueError, IndexError, TypeError, AttributeError) as exc:
+        raise InputError(f"not readable as the design's target.ply: {exc}", path=path) from exc
+    try:
+        return Target(vertices * MM, faces, name=name, units="mm")
+    except InputError as err:
+        raise err.with_path(path)

@@ -3,8 +3,9 @@
 First the map a user reads first: the deviation of the named face (``DesignCheck.surface``) on
 the mattress's Ω coordinates, with the strings drawn, each face in its own colour and line style.
 Then the inflated named face in 3D coloured by the same deviation with Ŝ as a wireframe (two
-coincident translucent surfaces would flicker: z-fighting), each face's deviation, the runs and
-the realized κ per dash. Every number says which face it measures.
+coincident translucent surfaces would flicker: z-fighting), each face's deviation, the runs (with
+each run's distance to the user's target S when the design keeps S) and the realized κ per dash.
+Every number says which face it measures.
 
 With a Monte-Carlo (``airmat.check.monte_carlo``): Ŝ coloured by each vertex's 95 % deviation
 quantile over the samples, and a table of the samples' statistics.
@@ -199,18 +200,25 @@ def curvature_figure(check) -> dict:
     return {"data": data, "layout": layout}
 
 
+def _to_s(d) -> str:
+    """A run's distance to the target S as its table cell: RMS in mm (% of Ŝ's diagonal)."""
+    return "–" if d is None else f"{d.rms * M_TO_MM:.1f} ({d.rms_pct_diag:.2f})"
+
+
 def _runs_table(check) -> str:
+    """Each run: convergence, the named face's deviation from Ŝ and, when the design keeps S, its distance to S."""
+    to_s = any(run.to_target is not None for run in check.runs.values())
     rows = []
     for key, run in check.runs.items():
         inf, dev = run.inflation, run.deviation
         rows.append([key, "yes" if inf.converged else "NO", inf.n_iter, f"{inf.residual:.2e}",
                      f"{dev.rms * M_TO_MM:.1f}", f"{dev.max * M_TO_MM:.1f}", f"{dev.rms_pct_diag:.2f}",
-                     inf.message])
+                     *([_to_s(run.to_target)] if to_s else []), inf.message])
     face = check.surface
     # no wall-clock time on the page: the same inputs give the same bytes (times are in inflate.json)
     return html_table(["string lengths", "converged", "Newton iterations", "residual", f"RMS, {face} face (mm)",
-                       f"max, {face} face (mm)", f"RMS, {face} face (% of diagonal)", "message"], rows,
-                      table_id="check-runs")
+                       f"max, {face} face (mm)", f"RMS, {face} face (% of diagonal)",
+                       *(["to S: RMS mm (% diag)"] if to_s else []), "message"], rows, table_id="check-runs")
 
 
 def faces_table(check) -> str:

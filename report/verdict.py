@@ -2,10 +2,11 @@
 
 :func:`check_verdict` reads a :class:`~airmat.check.inflation_check.DesignCheck`: whether the
 inflated named face lands within :data:`WITHIN_PCT_DIAG` % of Ŝ's bounding-box diagonal (RMS;
-the line the project sets for a constructible design, ``docs/benchmarks.md``), the design's
-constructibility, the tolerance (the Monte-Carlo band when there is one, else the lo95 / hi95
-runs) and the next command: ``airmat refine`` for open-loop lengths, ``airmat check --samples``
-for a band, else the workshop files. :func:`design_verdict` does the same for a design alone
+the line the project sets for a constructible design, ``docs/benchmarks.md``), how far it and Ŝ
+are from the user's target S (when the design keeps S), the design's constructibility, the
+tolerance (the Monte-Carlo band when there is one, else the lo95 / hi95 runs) and the next
+command: ``airmat refine`` for open-loop lengths, ``airmat check --samples`` for a band, else
+the workshop files. :func:`design_verdict` does the same for a design alone
 (``airmat design``, ``airmat refine``: the refinement's promise, or none yet), and
 :func:`calibration_verdict` for a calibration alone. :func:`verdict_html` draws the card.
 """
@@ -83,6 +84,18 @@ def _tolerance(check) -> str:
             + ", ".join(f"{d.rms * M_TO_MM:.1f} mm ({d.rms_pct_diag:.2f} %) at {k}" for k, d in env.items()) + ".")
 
 
+def _to_target(check) -> list:
+    """The fact of the distance to S (mm, as inflate.json's ``to_target``), or none when the design does not keep S."""
+    to_s, own = check.runs["median"].to_target, getattr(check, "approx_to_target", None)
+    if to_s is None:
+        return []
+    fact = (f"The inflated {check.surface} face is {to_s.rms * M_TO_MM:.1f} mm RMS from your target S "
+            f"({to_s.rms_pct_diag:.2f} % of the diagonal)")
+    if own is not None:
+        fact += f"; Ŝ itself is {own.rms * M_TO_MM:.1f} mm from S ({own.rms_pct_diag:.2f} %)"
+    return [fact + "."]
+
+
 def check_verdict(check) -> Verdict:
     """The verdict of an inflation check (see the module's docstring).
 
@@ -101,7 +114,7 @@ def check_verdict(check) -> Verdict:
     headline = (f"Lands within {WITHIN_PCT_DIAG:g} % of the diagonal: {'yes' if within else 'no'}. The inflated "
                 f"{face} face is {dev.rms * M_TO_MM:.1f} mm RMS from Ŝ ({dev.rms_pct_diag:.2f} % of Ŝ's diagonal; "
                 f"max {dev.max * M_TO_MM:.1f} mm), {'refined' if refined else 'open-loop'} string lengths.")
-    facts = [constructible, _tolerance(check)]
+    facts = [*_to_target(check), constructible, _tolerance(check)]
     if d.calibration.uncalibrated:
         facts.append(f"UNCALIBRATED: {d.calibration.label}.")
     folder = _folder(d)

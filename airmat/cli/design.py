@@ -81,7 +81,7 @@ def add_parser(sub, parents):
     p.add_argument("--refine-reparametrize", type=int, default=None, metavar="N",
                    help="with --refine: rounds of the surface's points moved to where the refined mattress puts "
                         "them (see 'airmat refine --reparametrize'; default 1)")
-    add_out_argument(p, "design", "design.json, approx_surface.ply/.obj, pattern.svg, pattern.dxf, "
+    add_out_argument(p, "design", "design.json, approx_surface.ply/.obj, target.ply, pattern.svg, pattern.dxf, "
                                "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
     p.add_argument("--paper", action="append", choices=("A4", "A3"), default=None,
                    help="also write pattern_A4.pdf / pattern_A3.pdf: the 1:1 drawing tiled over pages of that "

@@ -13,8 +13,8 @@ import pytest
 from airmat.cli import main
 
 #: what write_design writes and export leaves alone unless asked
-ALL_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "calibration_samples.npz", "pattern.svg",
-             "pattern.dxf", "cutting_list.csv", "preview.png", "design.3dm")
+ALL_FILES = ("design.json", "approx_surface.ply", "approx_surface.obj", "target.ply", "calibration_samples.npz",
+             "pattern.svg", "pattern.dxf", "cutting_list.csv", "preview.png", "design.3dm")
 
 
 @pytest.fixture(scope="module")

@@ -87,16 +87,84 @@ def test_a_folder_from_before_the_face_metric_reads_as_flat_metric(vault, tmp_pa
     assert back.approx.report.metric == {"face": "flat", "min_ratio": 1.0}
 
 
+#: open3d finds the closest triangle in float32 (airmat.design.closest_point): among near-ties a foot may
+#: land on a neighbour, off by that rounding (m), as in tests/check/test_target_distance.py
+FLOAT32_SLACK = 1e-5
+
+
+def _float32_mm_error(xyz):
+    """The largest displacement (m) of a point set written as float32 mm: half a float32 step per coordinate."""
+    return float(np.sqrt(3) * 0.5 * np.spacing(np.float32(np.abs(xyz).max() * 1e3))) * 1e-3
+
+
+def test_the_target_round_trips_to_float32_mm_byte_stable(vault, tmp_path):
+    result, folder = vault
+    s, back = result.approx.target, read_design(folder).approx.target
+    assert back is not None and back.name == result.name and back.units == "mm"
+    np.testing.assert_array_equal(back.faces, s.faces)
+    assert np.abs(back.vertices - s.vertices).max() <= _float32_mm_error(s.vertices) / np.sqrt(3)
+    # the frame Ŝ is in: Ŝ's own distance to S read back is the one design.json gives from memory
+    from airmat.design.design_io import document
+
+    to_s, again = document(result)["report"]["to_target"], document(read_design(folder))["report"]["to_target"]
+    for key in ("rms_mm", "max_mm"):      # rounded to 0.001 mm in the file; S and Ŝ moved by float32 rounding
+        assert again[key] == pytest.approx(to_s[key], abs=1e-3 + 1e3 * (2 * _float32_mm_error(s.vertices)
+                                                                        + FLOAT32_SLACK))
+    write_design(result, tmp_path / "again")
+    assert (tmp_path / "again" / "target.ply").read_bytes() == (folder / "target.ply").read_bytes()
+
+
+def test_a_folder_without_target_ply_reads_without_s(vault, tmp_path):
+    """A folder written before target.ply: no S, so the check notes it (airmat.check.report.TO_TARGET_NOTE)."""
+    import shutil
+
+    _, folder = vault
+    old = tmp_path / "old"
+    shutil.copytree(folder, old)
+    (old / "target.ply").unlink()
+    assert read_design(old).approx.target is None
+    (old / "target.ply").write_bytes((folder / "target.ply").read_bytes()[:-100])
+    with pytest.raises(InputError, match="truncated PLY") as err:
+        read_design(old)
+    assert err.value.path.endswith("target.ply")
+
+
 @pytest.mark.slow
 def test_check_in_memory_equals_check_of_the_folder(vault):
-    """The in-memory pipeline and the file adapter feed the check the same design."""
+    """The in-memory pipeline and the file adapter feed the check the same design, the target S included."""
+    from airmat.check.compare import distance_to_target
+    from airmat.check.report import TO_TARGET_NOTE, check_dict
+
     result, folder = vault
-    mem = check(result, resolution=0.05, envelope=False).runs["median"]
-    disk = check(read_design(folder), resolution=0.05, envelope=False).runs["median"]
+    back = read_design(folder)
+    mem_check = check(result, resolution=0.05, envelope=False)
+    disk_check = check(back, resolution=0.05, envelope=False)
+    mem, disk = mem_check.runs["median"], disk_check.runs["median"]
     assert mem.inflation.converged and disk.inflation.converged
     # lengths differ by < 0.005 mm (rounding), so the shapes differ by far less than a millimetre
     assert abs(mem.deviation.rms - disk.deviation.rms) < 1e-4
     np.testing.assert_allclose(mem.kappa_realized, disk.kappa_realized, atol=1e-2)
+    # the distance to S: the folder's S is the memory's to float32 mm, so the same face is as far from either
+    assert abs(mem.to_target.rms - disk.to_target.rms) < 1e-4
+    s = result.approx.target
+    diag = float(np.linalg.norm(np.ptp(back.approx.xyz, axis=0)))
+    exact = distance_to_target(disk.deviation.aligned, s, diagonal=diag)
+    tol = _float32_mm_error(s.vertices) + FLOAT32_SLACK
+    assert abs(disk.to_target.rms - exact.rms) <= tol and abs(disk.to_target.max - exact.max) <= tol
+    # Ŝ's own distance to S: both Ŝ and S moved by their float32 rounding
+    tol_own = tol + _float32_mm_error(result.approx.xyz)
+    own = distance_to_target(result.approx.xyz, s, diagonal=diag)
+    assert abs(disk_check.approx_to_target.rms - own.rms) <= tol_own
+    # inflate.json (0.001 mm): the folder's check against the memory's
+    doc, mem_doc = check_dict(disk_check)["to_target"], check_dict(mem_check)["to_target"]
+    assert doc["surface"] == mem_doc["surface"] and doc["rms_mm"] == pytest.approx(mem_doc["rms_mm"], abs=0.1)
+    assert doc["rms_mm"] == pytest.approx(exact.rms * 1e3, abs=5e-4 + 1e3 * tol)
+    assert doc["approx"]["rms_mm"] == pytest.approx(mem_doc["approx"]["rms_mm"], abs=1e-3 + 1e3 * tol_own)
+    # a folder without target.ply: the note, as before it existed
+    from dataclasses import replace
+
+    old = replace(back, approx=replace(back.approx, target=None))
+    assert check_dict(check(old, resolution=0.05, envelope=False))["to_target"] == TO_TARGET_NOTE
 
 
 def test_a_missing_folder_or_field_is_an_input_error(vault, tmp_path):

@@ -189,3 +189,34 @@ def test_the_calibration_summary_compares_with_the_truth(run_objects):
     assert f"truth {far:.2f} mm, median - truth {p.delta.median * 1000 - far:+.2f}, OUTSIDE" in delta
     assert "median - truth +0.00, inside the 95% interval" in d and "truth" not in sigma
     assert "truth" not in summary_text(cal)
+
+
+def test_the_distance_to_s_stands_beside_the_deviation_from_s_hat(run_objects):
+    """The runs' table and the verdict give inflate.json's ``to_target`` numbers; a check without S gives none."""
+    _, _, checked = run_objects
+    doc = check_dict(checked)
+    tt = doc["to_target"]
+    assert "rms_mm" in tt and "approx" in tt            # the design in memory keeps S
+    html = report_html(check=checked)
+    rows = table(html, "check-runs")
+    col = rows[0].index("to S: RMS mm (% diag)")
+    blocks = {"median": tt, **{k: v["to_target"] for k, v in doc["envelope"].items()}}
+    assert sorted(row[0] for row in rows[1:]) == sorted(blocks)
+    for row in rows[1:]:
+        rms, pct = re.fullmatch(r"(\d+\.\d) \((\d+\.\d\d)\)", row[col]).groups()
+        # the table shows 0.1 mm and 0.01 %; inflate.json keeps 0.001 mm and 0.0001 %
+        assert float(rms) == pytest.approx(blocks[row[0]]["rms_mm"], abs=0.051)
+        assert float(pct) == pytest.approx(blocks[row[0]]["rms_pct_diag"], abs=0.0051)
+    text = _verdict(html)
+    got = re.search(r"The inflated (\w+) face is (\d+\.\d) mm RMS from your target S \((\d+\.\d\d) % of the "
+                    r"diagonal\); Ŝ itself is (\d+\.\d) mm from S \((\d+\.\d\d) %\)\.", text)
+    assert got and got.group(1) == tt["surface"] == checked.surface
+    assert float(got.group(2)) == pytest.approx(tt["rms_mm"], abs=0.051)
+    assert float(got.group(3)) == pytest.approx(tt["rms_pct_diag"], abs=0.0051)
+    assert float(got.group(4)) == pytest.approx(tt["approx"]["rms_mm"], abs=0.051)
+    assert float(got.group(5)) == pytest.approx(tt["approx"]["rms_pct_diag"], abs=0.0051)
+    # read from a folder without target.ply: no column, no fact
+    without = dataclasses.replace(checked, approx_to_target=None,
+                                  runs={k: dataclasses.replace(r, to_target=None) for k, r in checked.runs.items()})
+    html = report_html(check=without)
+    assert "to S: RMS mm (% diag)" not in table(html, "check-runs")[0] and "target S" not in _verdict(html)
