@@ -17,7 +17,7 @@ import numpy as np
 
 from airmat import __version__
 
-__all__ = ["SCHEMA_VERSION", "finish", "dumps"]
+__all__ = ["SCHEMA_VERSION", "finish", "dumps", "read_object"]
 
 #: version of the JSON layouts described by ``airmat/schemas/*.schema.json``; bump on an incompatible change
 SCHEMA_VERSION = 1
@@ -58,6 +58,31 @@ def finish(doc: dict, *, reasons: dict | None = None) -> dict:
 def dumps(doc: dict, *, indent: int | None = 1, reasons: dict | None = None, **kwargs) -> str:
     """``json.dumps(finish(doc))`` with ``allow_nan=False`` (a NaN left over is a bug, not a file)."""
     return json.dumps(finish(doc, reasons=reasons), indent=indent, allow_nan=False, **kwargs)
+
+
+def read_object(path) -> dict:
+    """The JSON object in ``path``; an :class:`airmat.errors.InputError` naming the file if it is not one.
+
+    Parameters
+    ----------
+    path : str or PathLike
+
+    Returns
+    -------
+    dict
+    """
+    from pathlib import Path
+
+    from airmat.errors import InputError
+
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:      # ValueError: JSONDecodeError and UnicodeDecodeError
+        raise InputError(f"cannot read as JSON: {err}", path=path) from None
+    if not isinstance(doc, dict):
+        raise InputError("expected a JSON object at the top level", path=path)
+    return doc
 
 
 def _clean(node, pointer: str, missing: dict, reasons: dict):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from airmat.errors import InputError
@@ -35,13 +34,9 @@ def add_parser(sub, parents):
 
 
 def _json(path: Path) -> dict:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        raise InputError(f"cannot read: {err}", path=path) from None
-    if not isinstance(doc, dict):
-        raise InputError("not a JSON object", path=path)
-    return doc
+    from airmat.json_doc import read_object
+
+    return read_object(path)
 
 
 def _check_design(folder: Path, doc: dict):
