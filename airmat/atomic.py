@@ -64,7 +64,7 @@ try:  # POSIX only; without it runs are not locked against each other
 except ImportError:  # pragma: no cover - Windows
     fcntl = None
 
-__all__ = ["staged_dir", "check_out_dir", "sweep_stale", "atomic_write_bytes", "atomic_write_text"]
+__all__ = ["staged_dir", "check_out_dir", "sweep_stale", "atomic_write_bytes", "atomic_write_text", "signals_deferred"]
 
 log = logging.getLogger(__name__)
 
@@ -213,7 +213,7 @@ def sweep_stale(out: str | os.PathLike) -> list[Path]:
 # ------------------------------------------------------------ signals
 
 @contextlib.contextmanager
-def _signals_deferred(signums: Iterable[int] = (signal.SIGINT, signal.SIGTERM)) -> Iterator[None]:
+def signals_deferred(signums: Iterable[int] = (signal.SIGINT, signal.SIGTERM)) -> Iterator[None]:
     """Hold SIGINT/SIGTERM for the duration of the block, then deliver the first one that came.
 
     Only the main thread can install handlers; elsewhere the block runs as is
@@ -338,7 +338,7 @@ def _swap(tmp: Path, out: Path, *, replace: bool) -> None:
 
 def _swap_uninterrupted(tmp: Path, out: Path, *, replace: bool) -> None:
     """:func:`_swap` with SIGINT/SIGTERM deferred: Ctrl-C cannot land between its steps."""
-    with _signals_deferred():
+    with signals_deferred():
         _swap(tmp, out, replace=replace)
 
 
@@ -392,7 +392,7 @@ def staged_dir(out: str | os.PathLike) -> Iterator[Path]:
             sweep_stale(out)
             # a Ctrl-C between creating the folder and registering its removal would leave it
             # behind: the two happen with SIGINT/SIGTERM deferred, the interrupt comes right after
-            with _signals_deferred():
+            with signals_deferred():
                 tmp = Path(tempfile.mkdtemp(prefix=_staging_prefix(out), dir=parent))
                 # held until the run ends: tells other runs' sweeps that this folder is alive
                 stack.enter_context(_locked(tmp))
@@ -410,7 +410,7 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd = tmp = None
     try:
-        with _signals_deferred():   # a Ctrl-C right after mkstemp comes once tmp is known, so it is removed
+        with signals_deferred():   # a Ctrl-C right after mkstemp comes once tmp is known, so it is removed
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
         with os.fdopen(fd, "wb") as fh:
             fd = None   # the file object closes it

@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
-import signal
 import tempfile
-import threading
 from pathlib import Path
 
 from airmat.errors import InputError
@@ -84,24 +81,9 @@ def write_files(result, folder, *, papers=(), dxf=False, csv=False, rhino=False)
     return names
 
 
-@contextlib.contextmanager
-def _sigint_deferred():
-    """Hold SIGINT while the files are moved in (microseconds), then deliver it: no half-moved set on Ctrl-C."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught = []
-    previous = signal.signal(signal.SIGINT, lambda n, frame: caught.append(n))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught:
-            signal.raise_signal(signal.SIGINT)
-
-
 def _in_place(result, folder: Path, **files) -> list[str]:
     """Make the files in a hidden folder inside ``folder``, then move each over its old version."""
+    from airmat.atomic import signals_deferred
     from airmat.cli import sigint
 
     if not os.access(folder, os.W_OK | os.X_OK):
@@ -110,7 +92,7 @@ def _in_place(result, folder: Path, **files) -> list[str]:
     try:
         names = write_files(result, stage, **files)
         sigint.check()
-        with _sigint_deferred():
+        with signals_deferred():     # microseconds: no half-moved set on Ctrl-C
             for name in names:
                 os.replace(stage / name, folder / name)
     finally:

@@ -165,10 +165,10 @@ def test_publish_refuses_an_out_that_became_a_file(tmp_path):
 
 # ---------------------------------------------------------------- Ctrl-C during the swap
 
-def test_signals_deferred_delivers_after_the_block():
+def testsignals_deferred_delivers_after_the_block():
     seen = []
     with pytest.raises(KeyboardInterrupt):
-        with atomic._signals_deferred():
+        with atomic.signals_deferred():
             os.kill(os.getpid(), signal.SIGINT)
             seen.append("still running")
     assert seen == ["still running"]
