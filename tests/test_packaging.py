@@ -66,20 +66,20 @@ def test_the_wheel_installs_only_airmat_with_every_module_and_the_schemas(wheel)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("platform", PLATFORMS)
-def test_every_dependency_has_a_binary_wheel_for_the_users_platforms(platform, tmp_path):
+def test_every_dependency_has_a_binary_wheel_for_the_users_platforms(tmp_path):
     # pip evaluates environment markers for the machine it runs on whatever --platform says; uv resolves
     # for the target platform, markers included, against the package index
     reqs = tmp_path / "requirements.in"
     reqs.write_text("\n".join(_dependencies()) + "\n", encoding="utf-8")
     uv = Path(sysconfig.get_path("scripts")) / "uv"
     env = {**os.environ, "UV_NO_PROGRESS": "1"}
-    # the three resolutions wait on the index, not the CPU: run them at once
-    procs = {python: subprocess.Popen([str(uv), "pip", "compile", str(reqs), "--python-platform", platform,
-                                       "--python-version", python, "--only-binary", ":all:", "--no-header", "-q"],
-                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-             for python in PYTHONS}
-    for python, proc in procs.items():
+    # the resolutions wait on the index, not the CPU: run them all at once
+    procs = {(platform, python): subprocess.Popen(
+        [str(uv), "pip", "compile", str(reqs), "--python-platform", platform, "--python-version", python,
+         "--only-binary", ":all:", "--no-header", "-q"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        for platform in PLATFORMS for python in PYTHONS}
+    for (platform, python), proc in procs.items():
         stdout, stderr = proc.communicate(timeout=600)
         assert proc.returncode == 0, f"{platform}, Python {python}:\n{stderr[-3000:]}"
         pinned = {line.split("==")[0].lower() for line in stdout.splitlines() if "==" in line}
