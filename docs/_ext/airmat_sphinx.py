@@ -127,6 +127,17 @@ def _exit_table(module_name: str) -> list[nodes.Node]:
     return [node.deepcopy() for node in tree.children if not isinstance(node, nodes.system_message)]
 
 
+
+def _command_body(parser, command_ids) -> list:
+    """A command's usage, description, options and epilog, as docutils nodes."""
+    body = [nodes.literal_block("", _usage(parser))]
+    if parser.description:
+        body += list(_text_blocks(parser.description, _is_raw(parser)))
+    body += list(_options(parser, command_ids))
+    if parser.epilog:
+        body += list(_text_blocks(parser.epilog, _is_raw(parser)))
+    return body
+
 class AirmatCli(SphinxDirective):
     """Emit the CLI reference of ``MODULE.FUNC()`` (an ``argparse.ArgumentParser``)."""
 
@@ -155,24 +166,14 @@ class AirmatCli(SphinxDirective):
 
         out: list[nodes.Node] = []
         top = _section(document, prog, f"cli-{prog}")
-        top += nodes.literal_block("", _usage(parser))
-        if parser.description:
-            top += _text_blocks(parser.description, _is_raw(parser))
-        top += _options(parser, command_ids)
-        if parser.epilog:
-            top += _text_blocks(parser.epilog, _is_raw(parser))
+        top += _command_body(parser, command_ids)
         out.append(top)
 
         for name, sub in commands:
             section = _section(document, f"{prog} {name}", f"cli-{prog}-{name}")
             if helps.get(name):
                 section += nodes.paragraph("", "", nodes.emphasis(helps[name], helps[name]))
-            section += nodes.literal_block("", _usage(sub))
-            if sub.description:
-                section += _text_blocks(sub.description, _is_raw(sub))
-            section += _options(sub, command_ids)
-            if sub.epilog:
-                section += _text_blocks(sub.epilog, _is_raw(sub))
+            section += _command_body(sub, command_ids)
             out.append(section)
 
         exit_module = self.options.get("exit-codes", f"{module}._exit")
