@@ -110,7 +110,7 @@ def gauss_newton(prob: TrialProblem, l0, l_reg, x0, lo, hi, *, alpha, max_iter, 
     max_iter : int
         Accepted steps at most.
     ftol, xtol, rms_tol : float
-        Stopping rule (see :class:`airmat.check.refinement.RefineOptions`): relative decrease of
+        Stopping rule (see :class:`airmat.check.refinement_result.RefineOptions`): relative decrease of
         the objective (dimensionless), step length (m), decrease of the RMS (m).
     lam0 : float
         Start damping (dimensionless).
