@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import zipfile
 from collections import Counter
@@ -22,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from airmat.errors import InputError
-from airmat.json_doc import dumps, finish
+from airmat.json_doc import dumps, finish, read_object
 from airmat.npz_bytes import npz_bytes
 from airmat.units import M_TO_MM, MM
 from airmat.calib.likelihood import DEFAULT_PRIORS, PARAM_NAMES, Priors
@@ -161,12 +160,7 @@ def _read_json(path: Path) -> dict:
     if not path.is_file():
         raise InputError("calibration.json not found (expected the output folder of 'airmat calibrate')",
                          path=path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"not readable as JSON: {exc}", path=path) from exc
-    if not isinstance(doc, dict):
-        raise InputError("expected a JSON object at the top level", path=path)
+    doc = read_object(path)
     params = doc.get("parameters")
     for name in ("delta_mm", "d_mm"):
         entry = params.get(name) if isinstance(params, dict) else None

@@ -33,7 +33,7 @@ from pathlib import Path
 
 from airmat.atomic import atomic_write_text
 from airmat.errors import InputError
-from airmat.json_doc import finish
+from airmat.json_doc import finish, read_object
 from airmat.units import M_TO_MM
 
 __all__ = ["design_document", "dash_entry", "write_design_json", "read_design_json", "FACES"]
@@ -118,11 +118,8 @@ def read_design_json(path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise InputError("design.json not found", path=path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"not readable as JSON: {exc}", path=path) from exc
+    doc = read_object(path)
     for key in ("dashes", "mattress"):
-        if not isinstance(doc, dict) or key not in doc:
+        if key not in doc:
             raise InputError(f"missing field '{key}'", path=path, field=key)
     return doc
