@@ -29,8 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airmat.calib.model import kappa1, kappa_max, string_length
-from airmat.check.length_map import length_map
+from airmat.check.string_world import world_strings
 from airmat.summary import Summarized, mm
 
 __all__ = ["MonteCarloDraws", "MonteCarloResult", "draw", "summarize", "quantile_se"]
@@ -92,26 +91,16 @@ def draw(design, n: int, seed: int = 0, *, lengths=None) -> MonteCarloDraws:
     MonteCarloDraws
     """
     cal = design.calibration
-    strings = design.pattern.strings
     rng = np.random.default_rng(seed)
     pick = rng.integers(0, cal.n_samples, size=n)
     has_sigma = cal.sigma is not None
     delta, d = cal.delta[pick], cal.d[pick]
     sigma = np.asarray(cal.sigma, float)[pick] if has_sigma else np.zeros(n)
-    z = rng.standard_normal((n, len(strings)))
-    l_med = np.array([s.l_median for s in strings], float)
-    span = np.array([s.eq3_span for s in strings], float)      # the span each length came from
-    d_bar, delta_bar = float(np.median(cal.d)), cal.delta_median
-    k_bar = kappa1(l_med, span, delta_bar, d_bar)                          # (k,)
-    k_top = kappa_max(span, delta_bar, d_bar)
-    k = kappa1(l_med[None, :], span[None, :], delta[:, None], d[:, None]) + sigma[:, None] * z
-    k = np.clip(k, 0.0, k_top[None, :])
-    change = string_length(k, span[None, :], delta_bar, d_bar) - string_length(k_bar, span, delta_bar, d_bar)
-    length = np.maximum(l_med[None, :] + change, 0.0)
-    rest = (length_map(cal) if lengths is None else lengths).to_simulated(length)
+    z = rng.standard_normal((n, len(design.pattern.strings)))
+    w = world_strings(design, delta, d, kappa_offset=sigma[:, None] * z, lengths=lengths)
     source = "posterior" if has_sigma else "none (sigma = 0: the calibration measured no scatter)"
-    return MonteCarloDraws(seed=int(seed), delta=delta, d=d, sigma=sigma, kappa=k, kappa_median=k_bar,
-                           length=length, rest=rest, sigma_source=source)
+    return MonteCarloDraws(seed=int(seed), delta=delta, d=d, sigma=sigma, kappa=w.kappa, kappa_median=w.kappa_median,
+                           length=w.length, rest=w.rest, sigma_source=source)
 
 
 def quantile_se(x, q: float, *, n_boot: int = 1000, seed: int = 0) -> float:
