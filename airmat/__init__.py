@@ -61,7 +61,7 @@ _FACADE = {
     "refine": "airmat.check.refinement:refine",
     "write_report": "airmat.report.page:write_report",
 }
-_SUBPACKAGES = ("calib", "design", "inflation", "check", "report", "synthetic", "cli")
+_SUBPACKAGES = ("calib", "design", "inflation", "check", "report", "synthetic", "asbuilt", "cli")
 
 __all__ = ["__version__", *_FACADE]
 

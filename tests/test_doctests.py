@@ -12,10 +12,10 @@ import pytest
 
 def _all_modules():
     import airmat.calib, airmat.design, airmat.inflation, airmat.check, airmat.report  # noqa: E401,F401
-    import airmat.synthetic  # noqa: F401
+    import airmat.synthetic, airmat.asbuilt  # noqa: E401,F401
     names = set()
     for pkg in ("airmat", "airmat.calib", "airmat.design", "airmat.inflation", "airmat.check", "airmat.report",
-                "airmat.synthetic"):
+                "airmat.synthetic", "airmat.asbuilt"):
         module = importlib.import_module(pkg)
         names.add(pkg)
         names |= {m.name for m in pkgutil.walk_packages(module.__path__, pkg + ".")

@@ -21,6 +21,7 @@ PYTHONS = ("3.10", "3.11", "3.12")
 #: the stage folders at the repository root and the package each installs as
 FOLDERS = {"calib": "airmat/calib", "design": "airmat/design", "inflation": "airmat/inflation",
            "check": "airmat/check", "report": "airmat/report", "data_synthetic": "airmat/synthetic",
+           "asbuilt": "airmat/asbuilt",
            "airmat": "airmat"}
 
 

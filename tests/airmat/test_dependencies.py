@@ -18,13 +18,14 @@ ROOT = Path(__file__).resolve().parents[2]
 
 #: repository folder -> the package it installs as (pyproject.toml, [tool.setuptools] package-dir)
 FOLDERS = {"airmat": "airmat", "calib": "airmat.calib", "design": "airmat.design", "inflation": "airmat.inflation",
-           "check": "airmat.check", "report": "airmat.report", "data_synthetic": "airmat.synthetic"}
+           "check": "airmat.check", "report": "airmat.report", "data_synthetic": "airmat.synthetic",
+           "asbuilt": "airmat.asbuilt"}
 
 #: the product: every package but the synthetic data's
 PRODUCT = tuple(f for f, pkg in FOLDERS.items() if pkg != "airmat.synthetic")
 
 #: first parts of module names that do not exist: the folders imported as top-level packages
-OLD_TOP_LEVEL = ("calib", "design", "inflation", "check", "report", "data_synthetic")
+OLD_TOP_LEVEL = ("calib", "design", "inflation", "check", "report", "data_synthetic", "asbuilt")
 
 
 def _module_names(root: Path, folders: dict) -> dict:
@@ -297,7 +298,8 @@ ALLOWED = {
     "airmat.inflation": {"airmat"},
     "airmat.check": {"airmat", "airmat.calib", "airmat.design", "airmat.inflation"},
     "airmat.synthetic": {"airmat", "airmat.calib"},
-    "airmat.report": {"airmat", "airmat.calib", "airmat.design", "airmat.check", "airmat.inflation"},
+    "airmat.asbuilt": {"airmat", "airmat.calib", "airmat.design", "airmat.inflation", "airmat.check"},
+    "airmat.report": {"airmat", "airmat.calib", "airmat.design", "airmat.check", "airmat.inflation", "airmat.asbuilt"},
 }
 
 
