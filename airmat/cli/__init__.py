@@ -31,8 +31,8 @@ from airmat.progress import set_progress  # noqa: E402
 __all__ = ["main", "build_parser"]
 
 #: subcommand modules, in the order ``--help`` lists them
-COMMANDS = ("synth", "fit", "calibrate", "plan", "design", "refine", "inflate", "retie", "export", "report", "validate",
-            "gallery", "demo", "presets", "info")
+COMMANDS = ("synth", "synth-built", "fit", "calibrate", "plan", "design", "refine", "inflate", "retie", "export",
+            "report", "validate", "gallery", "demo", "presets", "info")
 
 log = logging.getLogger("airmat")
 
@@ -105,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     parser.commands = sub.choices     # name -> the subcommand's parser (its own error line)
     for name in COMMANDS:
-        module = importlib.import_module(f"airmat.cli.{name}")
+        module = importlib.import_module(f"airmat.cli.{name.replace('-', '_')}")   # synth-built: synth_built.py
         module.add_parser(sub, [common])
     return parser
 
