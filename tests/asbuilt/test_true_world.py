@@ -133,3 +133,27 @@ def test_the_truth_is_in_mm(small, first):
         assert r["l_real_mm"] == pytest.approx(r["l_design_mm"] + r["cut_error_mm"])
     assert doc["inflation"]["converged"] is True and doc["deviation"]["surface"] == first.surface
     assert "BuiltMattress" in repr(first) and "Δ" in repr(first)
+
+
+def test_a_refined_design_is_built_from_its_open_loop_equilibrium_as_check_inflates_it(small):
+    """A design with open-loop strings (here its own, shortened by 2 mm: another path) takes check's route."""
+    open_loop = [replace(s, l_median=s.l_median - 0.002) for s in small.pattern.strings]
+    refined = replace(small, open_loop=open_loop)
+    built = built_world(refined, median_world(refined), resolution=RES)
+    run = check(refined, resolution=RES, envelope=False)
+    assert built.open_loop is not None and run.open_loop is not None
+    assert np.abs(built.open_loop.xyz - run.open_loop.xyz).max() <= 1e-9
+    assert np.abs(built.inflation.xyz - run.runs["median"].inflation.xyz).max() <= 1e-9
+
+
+def test_the_correction_cycle_builds_the_corrected_design_in_the_same_world(small, first):
+    """synth-built -> correct -> synth-built: new lengths, the same world, fresh errors for the re-cut strings only."""
+    strings = small.pattern.strings
+    corrected = replace(small, pattern=replace(small.pattern, strings=[replace(strings[0], l_median=strings[0].l_median
+                                                                               + 0.004), strings[1]]))
+    second = built_world(corrected, first.world, resolution=RES, seed=5, recut=np.array([True, False]))
+    e = second.world.cut_error
+    assert e[1] == first.world.cut_error[1] and e[0] == draw_cut_errors(2, C, seed=5)[0]
+    assert second.real_length[0] == pytest.approx(strings[0].l_median + 0.004 + e[0], abs=1e-15)
+    assert second.real_length[1] == first.real_length[1]
+    assert second.strings.rest[1] == first.strings.rest[1] and second.strings.rest[0] != first.strings.rest[0]
