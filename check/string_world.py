@@ -17,7 +17,7 @@ and its rest length is the design's real-to-simulated map of l'_i
 (:func:`airmat.check.length_map.length_map`). A world equal to the median gives
 the median rest lengths exactly. Used by the Monte-Carlo draws
 (:mod:`airmat.check.monte_carlo`: one posterior sample per world) and by the
-synthetic as-built mattress (:mod:`airmat.synthetic.built_world`: one "true" world).
+synthetic as-built mattress (:mod:`airmat.asbuilt.true_world`: one "true" world).
 SI units.
 """
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("airmat", "calib", "design", "inflation", "check", "report", "data_synthetic")
+PACKAGES = ("airmat", "calib", "design", "inflation", "check", "report", "data_synthetic", "asbuilt")
 README_MAX_LINES = 300
 #: phrases of a measurement history; CHANGELOG.md is where history belongs
 HISTORY = re.compile(r"\bsession \d+|was measured in session", re.IGNORECASE)
