@@ -46,11 +46,12 @@ SOLVE_NEWTON = 50
 
 #: what the Newton method of the refinement's equilibria does with a step that does not lower U_B, and by
 #: how much it raises its shift (:func:`airmat.inflation.solver.solve`: ``refused_step``, ``mu_up``); the
-#: check's inflations (and so the verification) always keep the solver's own rule. Measured (docs/benchmarks.md,
+#: check's inflations (and so the verification) use the solver's own rule (halve the step, shift x2), which
+#: reaches the same equilibria from the flat mattress. Measured (docs/benchmarks.md,
 #: ``bench/bench_refine.py --draws 8 --trial-rule shift:4 backtrack:2``): halving with the shift x2
 #: took vault1 from 4.5-5.9x one inflation to 3.8-5.5x but from 0.70 % of the diagonal (median of 8
 #: draws) to 0.78 %, the saddle, vault2 and the roof the same deviations, the roof still at 4.9x. So the
-#: trials keep the check's rule: refactorize with the shift x4.
+#: trials refactorize with the shift x4.
 TRIAL_REFUSED_STEP = ("shift", 4.0)
 
 

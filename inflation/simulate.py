@@ -138,10 +138,12 @@ def _with_rest(model, rest: np.ndarray):
 
 
 def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: np.ndarray, *,
-          tol: float, stages: int, stage_tol: float, max_iter: int, hint_rel: float = 0.0):
+          tol: float, stages: int, stage_tol: float, max_iter: int, hint_rel: float = 0.0,
+          rule: tuple = (None, None)):
     """Solve U_B on ``mesh`` from ``x``, with the string rest lengths ramped from their
     lengths at ``x`` to l* in ``stages`` steps (1: no ramp). ``hint_rel`` seeds the Newton shift
-    (see :class:`~airmat.inflation.solver.NewtonSystem`).
+    (see :class:`~airmat.inflation.solver.NewtonSystem`); ``rule`` is the solver's
+    ``(refused_step, mu_up)`` (None: its defaults).
 
     Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``, the model)."""
     model = build_model(mesh, strings, params)
@@ -149,7 +151,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
     asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
     system = NewtonSystem(groups=asm.free // 3, hint_rel=hint_rel)       # shared by the stages
     kw = dict(fixed_dofs=fixed, max_iter=max_iter, max_move=0.5 * float(np.mean(mesh.spacing)),
-              assembler=asm, linear_system=system)
+              assembler=asm, linear_system=system, refused_step=rule[0], mu_up=rule[1])
     ramp = strings is not None and len(strings) > 0
     l0 = model.springs[-1].lengths(x) if ramp else None
     lam, step, n_iter, n_stages, halvings = 0.0, 1.0 / max(stages, 1), 0, 0, 0
@@ -178,7 +180,7 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
             tol: float = INFLATE_TOL, stages: int = 4, stage_tol: float = 3e-2, level_tol: float = 1e-3,
             coarsest: float = 0.08, dent: float = 0.0, max_iter: int = 200,
-            strict: bool = False, keep_levels: bool = False) -> Inflation:
+            strict: bool = False, keep_levels: bool = False, rule: tuple = (None, None)) -> Inflation:
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.
 
     The string ramp is solved on the coarsest mesh of the continuation
@@ -213,6 +215,9 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
         Raise :class:`ConvergenceError` when the final solve does not converge.
     keep_levels : bool
         Keep the coarser meshes' solutions in ``Inflation.levels`` (they do not change the result).
+    rule : tuple
+        ``(refused_step, mu_up)`` of :func:`~airmat.inflation.solver.solve` (None: the solver's
+        defaults, :data:`~airmat.inflation.solver.REFUSED_STEP` and :data:`~airmat.inflation.solver.MU_UP`).
 
     Returns
     -------
@@ -232,7 +237,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
         first = k == len(meshes) - 1
         result, it, st, hint, model = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
                                             stages=stages if first else 1, stage_tol=stage_tol,
-                                            max_iter=max_iter, hint_rel=hint)
+                                            max_iter=max_iter, hint_rel=hint, rule=rule)
         x, n_iter, n_stages = result.xyz, n_iter + it, n_stages + st
         if keep_levels and k > 0:
             kept.insert(0, (m, x))
