@@ -1,0 +1,511 @@
+"""The calibration posterior and each string's length error, updated with a scan of the built mattress.
+
+Data: registered scan points in Ŝ's frame (m). Each point is projected onto the
+predicted aligned named face (Ŝ's triangulation at the prediction's aligned
+vertices); its signed distance along the face normal is spread to the three
+corners by its barycentric weights, which gives each covered Ŝ vertex v an
+observed normal displacement y_v (the weighted mean) and a weight W_v (points'
+worth). Points beyond the rim are dropped.
+
+Model, linearised at the prediction x_j = (θ_j, e_j), θ = (Δ, d):
+
+    y ≈ A_n (R_θ (θ − θ_j) + D_e (e − e_j)) + G r + ε,
+
+- A_n (N, k): the face Jacobian (:func:`airmat.check.tolerance.face_jacobian`, the aligned
+  face's change per simulated rest length, rigid motions removed) projected on the
+  predicted face's vertex normals;
+- R_θ = ∂rest/∂(Δ, d) (k, 2) and D_e = ∂rest_i/∂e_i (k,), central differences of
+  :func:`airmat.check.string_world.world_strings`, the one chain from a world to the rest lengths;
+- e (k,): each string's effective length error (cut and tie, and its own curvature scatter
+  expressed as length);
+- G r: a rigid motion of the registration (6 columns along the normals, flat prior): the scan
+  is registered by another route than the check's Kabsch alignment, so only the non-rigid part
+  of the displacement is data;
+- prior θ ~ N(mean, covariance of the calibration's posterior samples), e_i ~ N(0, s_i²),
+  s_i² = (cut tolerance)²/3 (uniform ±t, as :mod:`airmat.check.length_covariance`) or t²
+  (normal) plus the scatter σ converted to length ((∂rest/∂z / ∂rest/∂e)² E[σ²]);
+- noise ε_v ~ N(0, τ² + σ_s²/W_v): σ_s the scan points' own scatter about their vertex's
+  mean, τ the model's error, estimated from the fit's residual (its weighted mean square
+  over the residual degrees of freedom, a few fixed-point rounds).
+
+Why a Laplace (Gaussian) update and not an MCMC: the Jacobian of the face with respect to
+every rest length is at hand (one factorization, one back-substitution per string), the
+model is linear in (θ, e) to first order and, with thousands of covered vertices and two
+parameters plus one per string, the posterior is data-dominated and near-Gaussian; a few
+Gauss–Newton relinearisations (each one inflation, made the check's way) take care of the curvature of the map. An MCMC would need an inflation per
+sample. The posterior of (θ, e) is the Gaussian at the MAP with the Gauss–Newton covariance.
+
+SI units (m, 1/m) throughout.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from airmat.check.compare import deviation
+from airmat.check.string_world import world_strings
+from airmat.check.tolerance import face_jacobian
+from airmat.design.curvature import vertex_normals
+from airmat.errors import InputError
+from airmat.inflation.model import Parameters
+from airmat.summary import Summarized, mm
+
+__all__ = ["ScanData", "Prediction", "Update", "scan_data", "update", "world_slopes", "MAX_RELINEARISATIONS",
+           "FLAG_SE"]
+
+log = logging.getLogger(__name__)
+
+#: relinearisations at most (each one inflation)
+MAX_RELINEARISATIONS = 3
+#: a string's tie looks wrong when |ê| exceeds this many standard errors (and the cut tolerance)
+FLAG_SE = 3.0
+#: a vertex is covered when the points spread onto it are worth at least this many points
+MIN_WEIGHT = 1.0
+#: converged when no parameter moved by more than this fraction of its posterior standard deviation (a
+#: shift of a quarter standard deviation moves a central 95 % interval's coverage by under 1 %)
+STEP_TOL = 0.25
+#: fixed-point rounds of the model-error variance τ² per inner step
+NOISE_ROUNDS = 3
+#: inner Gauss–Newton steps over the exact chain at most, and their tolerance (posterior sd)
+INNER_ITER = 30
+INNER_TOL = 1e-3
+#: the model error's standard deviation is at least this (m): a micrometre, far below any scan's noise
+TAU_FLOOR = 1e-6
+
+
+@dataclass(frozen=True)
+class ScanData:
+    """Registered scan points reduced to Ŝ's vertices (m).
+
+    Attributes
+    ----------
+    observed : ndarray of shape (N,)
+        Weighted mean signed normal distance of the points around each vertex from the
+        predicted face (0 where not covered) (m).
+    weight : ndarray of shape (N,)
+        Points' worth spread onto each vertex (sum of barycentric weights).
+    covered : ndarray of shape (N,) of bool
+    point_sd : float
+        The points' scatter about their vertex's mean (m).
+    n_points, n_used : int
+        Points given, points used (not beyond the rim, finite).
+    """
+
+    observed: np.ndarray
+    weight: np.ndarray
+    covered: np.ndarray
+    point_sd: float
+    n_points: int
+    n_used: int
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The model's inflated face at one point (θ, e) of the linearisation (SI).
+
+    Attributes
+    ----------
+    theta : ndarray of shape (2,)
+        (Δ, d) (m).
+    error : ndarray of shape (k,)
+        Each string's effective length error e (m).
+    rest : ndarray of shape (k,)
+        The simulated rest lengths of that world (m).
+    inflation : airmat.inflation.simulate.Inflation
+    deviation : airmat.check.compare.Deviation
+        Its named face aligned to Ŝ.
+    jacobian : ndarray of shape (N, 3, k)
+        A at that equilibrium (m/m).
+    """
+
+    theta: np.ndarray
+    error: np.ndarray
+    rest: np.ndarray
+    inflation: object
+    deviation: object
+    jacobian: np.ndarray
+
+
+@dataclass(frozen=True, repr=False)
+class Update(Summarized):
+    """The calibration posterior and the strings' length errors after a scan (SI units).
+
+    Attributes
+    ----------
+    mean, covariance : ndarray of shape (2,), (2, 2)
+        Posterior of (Δ, d) (m, m²).
+    prior_mean, prior_covariance : ndarray of shape (2,), (2, 2)
+        The design's calibration posterior as a Gaussian (m, m²).
+    error, error_se : ndarray of shape (k,)
+        Each string's effective length error ê (real length, m) and its standard error.
+    error_prior_sd : ndarray of shape (k,)
+        s_i of the prior on e_i (m).
+    joint_covariance : ndarray of shape (k + 2, k + 2)
+        Of (Δ, d, e_1 .. e_k) (m²).
+    ids : tuple of str
+    flagged : tuple of str
+        Strings whose tie looks wrong: |ê| > FLAG_SE se and > the cut tolerance.
+    samples : ndarray of shape (n, 3)
+        Seeded Gaussian draws of (Δ, d) with σ (1/m) carried over from the design's calibration.
+    residual : float
+        RMS of the fitted normal residual over the covered vertices (m).
+    noise_sd : float
+        τ: the model-error standard deviation (m).
+    rms_before : float
+        RMS of the observed displacement from the prediction over the covered vertices (m).
+    iterations : int
+        Linearisations (the first at the design's median run).
+    inflations : int
+        Inflations made for the relinearisations.
+    converged : bool
+    message : str
+    history : ndarray of shape (iterations, 2)
+        (Δ, d) after each linearisation (m).
+    prediction : Prediction
+        The last linearisation point.
+    median : Prediction
+        The first: the design's median run (the check's), where the correction linearises.
+    data : ScanData
+        The scan at the last linearisation.
+    cut_tolerance : float
+        t (m).
+    surface : str
+    seconds : float
+    seed : int
+    """
+
+    mean: np.ndarray
+    covariance: np.ndarray
+    prior_mean: np.ndarray
+    prior_covariance: np.ndarray
+    error: np.ndarray
+    error_se: np.ndarray
+    error_prior_sd: np.ndarray
+    joint_covariance: np.ndarray
+    ids: tuple
+    flagged: tuple
+    samples: np.ndarray
+    residual: float
+    noise_sd: float
+    rms_before: float
+    iterations: int
+    inflations: int
+    converged: bool
+    message: str
+    history: np.ndarray
+    prediction: Prediction
+    median: Prediction
+    data: ScanData
+    cut_tolerance: float
+    surface: str
+    seconds: float = 0.0
+    seed: int = 0
+
+    def _summary(self):
+        sd = np.sqrt(np.diag(self.covariance))
+        return "Update", [("Δ", f"{mm(self.mean[0], 2)} ± {mm(sd[0], 2)}"), ("d", f"{mm(self.mean[1], 2)} ± "
+                                                                               f"{mm(sd[1], 2)}"),
+                          ("flagged", len(self.flagged)), ("residual", mm(self.residual, 2)),
+                          ("iterations", self.iterations), ("converged", self.converged)]
+
+    @property
+    def interval95(self) -> np.ndarray:
+        """Central 95 % intervals of Δ and d, shape (2, 2): rows (lo, hi) (m)."""
+        half = 1.959963984540054 * np.sqrt(np.diag(self.covariance))
+        return np.stack([self.mean - half, self.mean + half])
+
+
+def scan_data(points, face_xyz, faces) -> ScanData:
+    """The registered scan points as normal displacements at the face's vertices (see the module docstring).
+
+    Parameters
+    ----------
+    points : ndarray of shape (M, 3)
+        Scan points in Ŝ's frame (m).
+    face_xyz : ndarray of shape (N, 3)
+        The predicted aligned face at Ŝ's vertices (m).
+    faces : ndarray of shape (F, 3)
+        Ŝ's triangles.
+
+    Returns
+    -------
+    ScanData
+    """
+    from trimesh.triangles import points_to_barycentric
+
+    from airmat.design.closest_point import MeshProjector
+
+    points = np.asarray(points, float)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"scan points: expected an array of shape (M, 3), got {points.shape}")
+    n = len(face_xyz)
+    keep = np.all(np.isfinite(points), axis=1)
+    near = MeshProjector(face_xyz, faces).closest(points[keep])
+    ok = ~near.on_rim & np.all(np.isfinite(near.points), axis=1)
+    p, cp, f = points[keep][ok], near.points[ok], near.face[ok]
+    tri = face_xyz[faces[f]]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    r = np.einsum("ij,ij->i", p - cp, normal)
+    w = np.clip(points_to_barycentric(tri, cp), 0.0, 1.0)
+    idx, w = faces[f].ravel(), w.ravel()
+    weight = np.bincount(idx, w, minlength=n)
+    total = np.bincount(idx, w * np.repeat(r, 3), minlength=n)
+    observed = np.divide(total, weight, out=np.zeros(n), where=weight > 0)
+    scatter = np.bincount(idx, w * (np.repeat(r, 3) - observed[idx]) ** 2, minlength=n)
+    point_sd = float(np.sqrt(scatter.sum() / max(weight.sum(), 1e-300)))
+    covered = weight >= MIN_WEIGHT
+    return ScanData(observed=np.where(covered, observed, 0.0), weight=weight, covered=covered,
+                    point_sd=point_sd, n_points=len(points), n_used=int(ok.sum()))
+
+
+def world_slopes(design, theta, error, *, strings=None) -> tuple:
+    """∂rest/∂(Δ, d) (k, 2), ∂rest_i/∂e_i (k,) and ∂rest_i/∂z_i (k,) at one world (central differences).
+
+    Parameters
+    ----------
+    design : airmat.design.pipeline.DesignResult
+    theta : ndarray of shape (2,)
+        (Δ, d) (m).
+    error : ndarray of shape (k,)
+        Effective length errors (m).
+    strings : sequence of TensionString, optional
+        Default the design's.
+
+    Returns
+    -------
+    tuple of ndarray
+        Unitless (m/m) for Δ, d and e; m per 1/m for the curvature offset z.
+    """
+    theta, error = np.asarray(theta, float), np.asarray(error, float)
+    h = 1e-5 * max(float(np.max(np.abs(theta))), 1e-3)
+    hk = 1e-3
+
+    def rest(delta, d, e=error, z=0.0):
+        return world_strings(design, delta, d, cut_error=e, kappa_offset=z, strings=strings).rest
+
+    r_theta = np.column_stack([(rest(theta[0] + h, theta[1]) - rest(theta[0] - h, theta[1])) / (2 * h),
+                               (rest(theta[0], theta[1] + h) - rest(theta[0], theta[1] - h)) / (2 * h)])
+    d_e = (rest(*theta, e=error + h) - rest(*theta, e=error - h)) / (2 * h)
+    d_z = (rest(*theta, z=hk) - rest(*theta, z=-hk)) / (2 * hk)
+    return r_theta, d_e, d_z
+
+
+def _prior(design, cut_tolerance: float, cut_distribution: str):
+    """(θ mean (2,), θ covariance (2, 2), s (k,)) of the prior (m, m², m)."""
+    cal = design.calibration
+    if cal.n_samples < 2:
+        raise InputError("the design's calibration has fewer than 2 posterior samples: no prior covariance of "
+                         "(delta, d) to update", n_samples=cal.n_samples)
+    mean = np.array([np.mean(cal.delta), np.mean(cal.d)])
+    cov = np.atleast_2d(np.cov(np.column_stack([cal.delta, cal.d]), rowvar=False))
+    k = len(design.pattern.strings)
+    median = np.array([cal.delta_median, float(np.median(cal.d))])
+    _, d_e, d_z = world_slopes(design, median, np.zeros(k))
+    var = np.full(k, cut_tolerance ** 2 / 3.0 if cut_distribution == "uniform" else cut_tolerance ** 2)
+    if cal.sigma is not None:
+        ratio = np.divide(d_z, d_e, out=np.zeros(k), where=np.abs(d_e) > 1e-9)
+        var = var + ratio ** 2 * float(np.mean(np.asarray(cal.sigma, float) ** 2))
+    return mean, cov, np.sqrt(var)
+
+
+def _rigid_columns(xyz: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """(N, 6): the normal component of the three translations and the three rotations about the centroid."""
+    p = xyz - xyz.mean(axis=0)
+    rot = np.cross(p[:, None, :], np.eye(3)[None, :, :])       # (N, 3 axes, 3): -(axis x p) ... sign is free
+    return np.column_stack([normal, np.einsum("nac,nc->na", rot, normal)])
+
+
+def _solve(y, var_scan, tau2, jac, rigid, prior_prec, prior_rhs):
+    """The MAP step of the Gaussian model and its covariance (rigid part marginalized); with the residual."""
+    w = 1.0 / (tau2 + var_scan)
+    m = np.column_stack([jac, rigid])
+    p = jac.shape[1]
+    h = (m * w[:, None]).T @ m
+    h[:p, :p] += prior_prec
+    rhs = (m * w[:, None]).T @ y
+    rhs[:p] += prior_rhs
+    scale = np.sqrt(np.maximum(np.diag(h), 1e-300))          # equilibrate: metres of Δ against vertices
+    cov = np.linalg.pinv(h / np.outer(scale, scale), hermitian=True) / np.outer(scale, scale)
+    x = cov @ rhs
+    resid = y - m @ x
+    dof = len(y) - float(np.trace((m * w[:, None]).T @ m @ cov))
+    return x, cov, resid, max(dof, 1.0)
+
+
+@dataclass(frozen=True)
+class _Linear:
+    """The face linearised at one inflation: y ≈ A_n (rest − rest_j) + G r at the covered vertices."""
+
+    y: np.ndarray
+    var_scan: np.ndarray
+    a_n: np.ndarray
+    rigid: np.ndarray
+    rest: np.ndarray
+
+
+def _linearisation(point, faces, points) -> tuple:
+    """The scan reduced at the prediction and the face's normal Jacobian there: (ScanData, _Linear)."""
+    data = scan_data(points, point.deviation.aligned, faces)
+    if not data.covered.any():
+        raise InputError("no scan point lies on the predicted face: is the scan registered in Ŝ's frame?")
+    normal = vertex_normals(point.deviation.aligned, faces)
+    c = data.covered
+    a_n = np.einsum("nc,nck->nk", normal[c], point.jacobian[c])
+    return data, _Linear(y=data.observed[c], var_scan=data.point_sd ** 2 / data.weight[c], a_n=a_n,
+                         rigid=_rigid_columns(point.deviation.aligned, normal)[c], rest=point.rest)
+
+
+def _map(design, lin: _Linear, x0, prior_mean, prior_prec, tau2, k):
+    """The MAP of (θ, e) under the face linear in the rest lengths and the exact chain rest(θ, e).
+
+    Inner Gauss–Newton: the chain (:func:`world_strings`, Equation 3) is cheap and evaluated exactly,
+    only the face is linear; τ² is re-estimated from the residual on the way. Returns
+    (x, covariance of x, residual, τ², inner iterations).
+    """
+    x = np.array(x0, float)
+    for inner in range(1, INNER_ITER + 1):
+        rest = world_strings(design, x[0], x[1], cut_error=x[2:]).rest
+        r_theta, d_e, _ = world_slopes(design, x[:2], x[2:])
+        jac = np.column_stack([lin.a_n @ r_theta, lin.a_n * d_e[None, :]])
+        y = lin.y - lin.a_n @ (rest - lin.rest)
+        for _ in range(NOISE_ROUNDS):
+            dx, cov, resid, dof = _solve(y, lin.var_scan, tau2, jac, lin.rigid, prior_prec,
+                                         prior_prec @ (prior_mean - x))
+            tau2 = max(float(np.sum(resid ** 2 - lin.var_scan)) / dof, TAU_FLOOR ** 2)
+        x = x + dx[:k + 2]
+        sd = np.sqrt(np.maximum(np.diag(cov[:k + 2, :k + 2]), 1e-300))
+        if np.max(np.abs(dx[:k + 2]) / sd) < INNER_TOL:
+            break
+    return x, cov[:k + 2, :k + 2], resid, tau2, inner
+
+
+def _predict(design, check, strings, theta, error, surface, params):
+    """The inflation at (θ, e) made the check's way, aligned to Ŝ, with its Jacobian.
+
+    The check's way: from the flat mattress, or a refined design's open-loop equilibrium carried on
+    (:func:`airmat.check.inflation_check.check`). Carrying the median run's equilibrium on instead
+    is cheaper but can keep another arrangement of the wrinkles than the built mattress took
+    (the two-string test design: 2.5 mm RMS apart at the same lengths).
+    """
+    from airmat.inflation.simulate import inflate, inflate_from
+
+    rest = world_strings(design, theta[0], theta[1], cut_error=error).rest
+    s = replace(strings, rest=rest)
+    if check.open_loop is not None:
+        inf = inflate_from(check.open_loop, s, params=params)
+    else:
+        inf = inflate(check.runs["median"].inflation.mesh, s, params=params)
+    if not inf.converged:
+        log.warning("the inflation at the updated parameters did not converge: %s", inf.message)
+    approx = design.approx
+    dev = deviation(inf, approx.xyz, approx.uv, surface)
+    point = Prediction(theta, error, rest, inf, dev, None)
+    return replace(point, jacobian=face_jacobian(design, point, s, surface, params))
+
+
+def update(design, points, *, check=None, resolution: float = 0.020, params: Parameters = Parameters(),
+           cut_tolerance: float = 0.003, cut_distribution: str = "uniform",
+           max_relinearisations: int = 2, n_samples: int = 2000, seed: int = 0, strict: bool = False) -> Update:
+    """Update the calibration posterior and each string's length error with a registered scan.
+
+    Parameters
+    ----------
+    design : airmat.design.pipeline.DesignResult
+        The design the mattress was built from (its calibration is the prior).
+    points : ndarray of shape (M, 3)
+        Scan points of the built, inflated mattress's named face, registered in Ŝ's frame (m).
+    check : airmat.check.inflation_check.DesignCheck, optional
+        The design's check (its median run is the prediction); default one made here with
+        ``resolution`` and ``params`` (median run only).
+    cut_tolerance : float
+        t (m) of the strings' cut and tie errors (the prior of e and the flags).
+    cut_distribution : {"uniform", "normal"}
+        e uniform on ±t (variance t²/3) or normal with standard deviation t.
+    max_relinearisations : int
+        Gauss–Newton relinearisations after the first (at the median run), 0 to
+        :data:`MAX_RELINEARISATIONS`; each costs one inflation.
+    n_samples : int
+        Gaussian draws of (Δ, d) in ``Update.samples``.
+    seed : int
+        Seed of those draws (and of the σ carried over).
+    strict : bool
+        Raise :class:`~airmat.errors.ConvergenceError` when the relinearisations do not converge.
+
+    Returns
+    -------
+    Update
+    """
+    from airmat.check.inflation_check import check as run_check, design_strings
+    from airmat.errors import ConvergenceError
+
+    started = time.perf_counter()
+    k = len(design.pattern.strings)
+    if k == 0:
+        raise InputError("the design has no strings: no string lengths to learn")
+    if not 0 <= max_relinearisations <= MAX_RELINEARISATIONS:
+        raise InputError(f"max_relinearisations must be 0 .. {MAX_RELINEARISATIONS}, got {max_relinearisations}")
+    if not (np.isfinite(cut_tolerance) and cut_tolerance > 0):
+        raise InputError(f"the cut tolerance must be > 0 m, got {cut_tolerance!r}")
+    if check is None:
+        check = run_check(design, resolution=resolution, params=params, envelope=False)
+    surface, med, faces = check.surface, check.runs["median"], design.approx.faces
+    strings = design_strings(design, "median", lengths=check.lengths)
+    mean0, cov0, s = _prior(design, cut_tolerance, cut_distribution)
+    prior_prec = np.zeros((k + 2, k + 2))
+    prior_prec[:2, :2] = np.linalg.inv(cov0)
+    prior_prec[2:, 2:] = np.diag(1.0 / s ** 2)
+    cal = design.calibration
+    theta = np.array([cal.delta_median, float(np.median(cal.d))])
+    point = first = Prediction(theta, np.zeros(k), strings.rest, med.inflation, med.deviation,
+                               face_jacobian(design, med, strings, surface, params))
+    prior_mean = np.concatenate([mean0, np.zeros(k)])
+    x = np.concatenate([theta, np.zeros(k)])
+    history, converged, inflations, rms_before, tau2 = [], False, 0, None, None
+    for it in range(max_relinearisations + 1):
+        data, lin = _linearisation(point, faces, points)
+        if rms_before is None:
+            rms_before = float(np.sqrt(np.mean(lin.y ** 2)))
+            tau2 = rms_before ** 2
+        x_old = x
+        x, joint, resid, tau2, inner = _map(design, lin, x, prior_mean, prior_prec, tau2, k)
+        sd = np.sqrt(np.maximum(np.diag(joint), 1e-300))
+        step = float(np.max(np.abs(x - x_old) / sd))
+        history.append(x[:2])
+        log.info("as-built update, linearisation %d (%d inner steps): delta %.2f mm, d %.2f mm, step %.2f sd, "
+                 "residual %.3f mm", it + 1, inner, 1e3 * x[0], 1e3 * x[1], step, 1e3 * np.sqrt(np.mean(resid ** 2)))
+        if it > 0 and step < STEP_TOL:
+            converged = True
+            break
+        if it == max_relinearisations:
+            break
+        point = _predict(design, check, strings, x[:2], x[2:], surface, params)
+        inflations += 1
+    message = (f"converged after {len(history)} linearisations" if converged else
+               f"not converged: the last step was {step:.2f} posterior sd (tolerance {STEP_TOL})"
+               if len(history) > 1 else "one linearisation (no relinearisation asked)")
+    if not converged:
+        log.warning("as-built update: %s", message)
+        if strict:
+            raise ConvergenceError(message, n_iter=len(history))
+    err, err_se = x[2:], sd[2:]
+    ids = tuple(sd_.dash.id for sd_ in design.pattern.strings)
+    flag = (np.abs(err) > FLAG_SE * err_se) & (np.abs(err) > cut_tolerance)
+    rng = np.random.default_rng(seed)
+    draws = rng.multivariate_normal(x[:2], joint[:2, :2], size=int(n_samples), method="eigh")
+    draws[:, 0] = np.maximum(draws[:, 0], 0.0)
+    draws[:, 1] = np.maximum(draws[:, 1], 1e-6)
+    sigma = (np.asarray(cal.sigma, float)[rng.integers(0, cal.n_samples, int(n_samples))]
+             if cal.sigma is not None else np.zeros(int(n_samples)))
+    return Update(mean=x[:2], covariance=joint[:2, :2], prior_mean=mean0, prior_covariance=cov0, error=err,
+                  error_se=err_se, error_prior_sd=s, joint_covariance=joint, ids=ids,
+                  flagged=tuple(i for i, f in zip(ids, flag) if f), samples=np.column_stack([draws, sigma]),
+                  residual=float(np.sqrt(np.mean(resid ** 2))), noise_sd=float(np.sqrt(tau2)),
+                  rms_before=rms_before, iterations=len(history), inflations=inflations, converged=converged,
+                  message=message, history=np.array(history), prediction=point, median=first, data=data,
+                  cut_tolerance=float(cut_tolerance), surface=surface, seconds=time.perf_counter() - started,
+                  seed=int(seed))

@@ -1,0 +1,198 @@
+"""airmat.asbuilt.update: the calibration posterior and the string errors learned from a built mattress.
+
+Ground truth is a synthetic "true world" (Δ, d, per-string cut errors) pushed through the one chain
+:func:`airmat.check.string_world.world_strings`, inflated the check's way, and scanned: points sampled
+uniformly on its aligned named face with Gaussian noise (seeded). The fast cases use the two-string
+design of tests/cli/test_inflate_cli.py with a posterior of (Δ, d) of its own.
+"""
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+import sys
+
+import numpy as np
+import pytest
+
+from airmat.asbuilt.update import scan_data, update, world_slopes
+from airmat.asbuilt.updated_calibration import updated_calibration
+from airmat.check.compare import deviation
+from airmat.check.inflation_check import check, design_strings
+from airmat.check.string_world import world_strings
+from airmat.design.calibration_source import CalibrationSource, load_calibration
+from airmat.design.design_io import read_design
+from airmat.errors import InputError
+from airmat.inflation.simulate import inflate
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "cli"))
+from test_inflate_cli import make_design  # noqa: E402
+
+#: the scan's noise along each axis (m) and its number of points
+SCAN_NOISE = 0.0005
+SCAN_POINTS = 20000
+#: the small design's true world: Δ and d 3 and 2.7 prior standard deviations off, cuts ±2 mm
+SMALL_WORLD = dict(delta=0.013, d=0.078, cut=np.array([0.002, -0.002]))
+
+
+@dataclass(frozen=True)
+class World:
+    """A true world, its built inflation and a scan of it."""
+
+    design: object
+    check: object
+    delta: float
+    d: float
+    cut: np.ndarray
+    rest: np.ndarray
+    built: object          # the Deviation of the built face
+    points: np.ndarray
+
+
+def with_posterior(design, delta=(0.010, 0.001), d=(0.070, 0.003), n=2000, seed=3):
+    """The design with a Gaussian posterior of (Δ, d) (m) in place of its one-sample calibration."""
+    rng = np.random.default_rng(seed)
+    cal = design.calibration
+    src = CalibrationSource(L=cal.L, delta=rng.normal(*delta, n), d=rng.normal(*d, n), source="test",
+                            uncalibrated=False, label="test posterior", sigma=None)
+    return replace(design, calibration=src)
+
+
+def scan(face, faces, n, rng):
+    """``n`` points uniform over the triangles' barycentric coordinates, with Gaussian noise (m)."""
+    f = rng.integers(0, len(faces), n)
+    b = rng.dirichlet(np.ones(3), n)
+    return np.einsum("mi,mic->mc", b, face[faces[f]]) + rng.normal(0.0, SCAN_NOISE, (n, 3))
+
+
+def true_world(design, chk, delta, d, cut, *, seed=0, n=SCAN_POINTS):
+    """The design built in the world (Δ, d, cut errors), inflated the check's way, and scanned."""
+    rest = world_strings(design, delta, d, cut_error=cut).rest
+    strings = replace(design_strings(design, lengths=chk.lengths), rest=rest)
+    inf = inflate(chk.runs["median"].inflation.mesh, strings)
+    assert inf.converged
+    built = deviation(inf, design.approx.xyz, design.approx.uv, chk.surface)
+    points = scan(built.aligned, design.approx.faces, n, np.random.default_rng(seed))
+    return World(design, chk, delta, d, np.asarray(cut, float), rest, built, points)
+
+
+@pytest.fixture(scope="module")
+def small_world(tmp_path_factory):
+    design = with_posterior(read_design(make_design(tmp_path_factory.mktemp("asbuilt") / "design")))
+    chk = check(design, resolution=0.025, envelope=False)
+    return true_world(design, chk, SMALL_WORLD["delta"], SMALL_WORLD["d"], SMALL_WORLD["cut"])
+
+
+@pytest.fixture(scope="module")
+def small_update(small_world):
+    w = small_world
+    return update(w.design, w.points, check=w.check, cut_tolerance=0.003, max_relinearisations=3, seed=1)
+
+
+def base_calibration(folder):
+    """A cylinder calibration with three specimens (as tests/calib/test_calibration_io.py builds one)."""
+    from airmat.calib.calibrate import Calibration, SpecimenFit
+    from airmat.calib.curve import kappa_curve
+    from airmat.calib.manifest import Manifest
+    from airmat.calib.posterior import ParamSummary, Posterior
+
+    rng = np.random.default_rng(1)
+    samples = np.column_stack([rng.normal(0.010, 0.001, 500), rng.normal(0.07, 0.003, 500),
+                               np.abs(rng.normal(0.1, 0.02, 500))])
+    scans = ("a.ply", "b.ply", "c.ply")
+    man = Manifest(path=str(folder / "manifest.csv"), scans=scans, scan_paths=tuple(str(folder / s) for s in scans),
+                   l=np.array([0.1, 0.2, 0.25]), L=np.full(3, 0.3), surface_offset=np.zeros(3))
+    specimens = tuple(SpecimenFit(scan=s, path=p, l=l, L=0.3, surface_offset=0.0, kappa=k, kappa_se=0.05,
+                                  radius=1 / k, inlier_fraction=0.9, rms=0.001, arc_deg=80.0, n_points=1000,
+                                  fit_converged=True)
+                      for s, p, l, k in zip(man.scans, man.scan_paths, man.l, (9.0, 4.0, 1.0)))
+    post = Posterior(samples=samples, log_prob=np.zeros(500), delta=ParamSummary.of(samples[:, 0]),
+                     d=ParamSummary.of(samples[:, 1]), sigma=ParamSummary.of(samples[:, 2]),
+                     start=samples[0], tau=np.full(3, 10.0), acceptance_fraction=0.4, n_steps=1000, n_walkers=32,
+                     burn=100, thin=5, converged=True, n_iter=1000, residual=0.9, message="ok")
+    return Calibration(manifest=man, specimens=specimens, posterior=post, curve=kappa_curve(samples, 0.3, n_grid=11),
+                       kappa_model=np.array([9.0, 4.0, 1.0]), seed=7)
+
+
+def rest_sd(upd, design):
+    """Posterior standard deviation of each string's rest length (m): the joint covariance through the chain."""
+    r_theta, d_e, _ = world_slopes(design, upd.mean, upd.error)
+    jac = np.column_stack([r_theta, np.diag(d_e)])
+    return np.sqrt(np.diag(jac @ upd.joint_covariance @ jac.T))
+
+
+def test_the_update_recovers_the_built_rest_lengths(small_update, small_world):
+    """What the face sees, each string's rest length, is recovered within the posterior's own spread."""
+    u, w = small_update, small_world
+    implied = world_strings(w.design, u.mean[0], u.mean[1], cut_error=u.error).rest
+    sd = rest_sd(u, w.design)
+    # 4 posterior sd, plus 0.05 mm: the discretisation of the face between Ŝ's vertices at 25 mm
+    assert np.all(np.abs(implied - w.rest) <= 4 * sd + 5e-5), (implied - w.rest, sd)
+    assert u.converged and u.iterations <= 4
+    assert u.residual < 0.1 * u.rms_before           # the built face's change from the prediction is explained
+
+
+def test_the_posterior_covers_the_world_and_is_narrower_than_the_prior(small_update, small_world):
+    u, w = small_update, small_world
+    lo, hi = u.interval95
+    truth = np.array([w.delta, w.d])
+    assert np.all((lo <= truth) & (truth <= hi)), (u.interval95, truth)
+    assert np.all(np.diag(u.covariance) < np.diag(u.prior_covariance))
+    assert u.samples.shape == (2000, 3) and np.all(u.samples[:, 1] > 0)
+    assert np.allclose(u.samples[:, :2].mean(axis=0), u.mean, atol=4 * np.sqrt(np.diag(u.covariance) / 2000))
+    assert "Update" in repr(u) and "Δ" in repr(u)
+
+
+def test_a_rigid_motion_of_the_scan_changes_nothing(small_update, small_world):
+    """The registration's rigid motion is a nuisance of the model (six columns with a flat prior)."""
+    w = small_world
+    angle = np.deg2rad(0.2)
+    rot = np.array([[np.cos(angle), -np.sin(angle), 0.0], [np.sin(angle), np.cos(angle), 0.0], [0.0, 0.0, 1.0]])
+    c = w.points.mean(axis=0)
+    moved = (w.points - c) @ rot.T + c + np.array([0.001, -0.002, 0.0015])
+    u = update(w.design, moved, check=w.check, cut_tolerance=0.003, max_relinearisations=0, seed=1)
+    first = update(w.design, w.points, check=w.check, cut_tolerance=0.003, max_relinearisations=0, seed=1)
+    sd = np.sqrt(np.diag(first.covariance))
+    assert np.all(np.abs(u.mean - first.mean) < 0.25 * sd)
+
+
+def test_the_scan_reduced_to_vertices_reads_an_offset_plane():
+    """Points 2 mm above a flat triangulated square read 2 mm at every covered vertex (analytic)."""
+    g = np.linspace(0.0, 1.0, 6)
+    xy = np.array([(x, y) for y in g for x in g])
+    xyz = np.column_stack([xy, np.zeros(len(xy))])
+    quads = [(j * 6 + i, j * 6 + i + 1, (j + 1) * 6 + i + 1, (j + 1) * 6 + i) for j in range(5) for i in range(5)]
+    faces = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    rng = np.random.default_rng(0)
+    pts = scan(xyz, faces, 5000, rng) * [1, 1, 0] + [0.0, 0.0, 0.002]
+    # none within the rim tolerance (airmat.design.closest_point.RIM_TOL: 0.05 mean edges, 10 mm here)
+    pts = pts[(pts[:, :2] > 0.02).all(axis=1) & (pts[:, :2] < 0.98).all(axis=1)]
+    data = scan_data(pts, xyz, faces)
+    assert data.covered.sum() >= 30 and data.n_used == len(pts)
+    assert np.allclose(data.observed[data.covered], 0.002, atol=1e-9)
+    assert data.point_sd < 1e-9
+
+
+def test_bad_scans_are_refused(small_world):
+    w = small_world
+    with pytest.raises(InputError, match=r"shape \(M, 3\)"):
+        update(w.design, w.points[:, :2], check=w.check)
+    with pytest.raises(InputError, match="registered"):
+        update(w.design, w.points + [10.0, 0.0, 0.0], check=w.check)
+    with pytest.raises(InputError, match="max_relinearisations"):
+        update(w.design, w.points, check=w.check, max_relinearisations=7)
+
+
+def test_the_updated_posterior_is_a_calibration_folder(small_update, small_world, tmp_path):
+    """Written by airmat calibrate's writer, read by the designer as any calibration."""
+    from airmat.calib.calibration_io import read_calibration, write_calibration
+
+    base = base_calibration(tmp_path)
+    cal = updated_calibration(small_update, small_world.design, base=base, scans=("built.ply",))
+    write_calibration(cal, tmp_path / "learned")
+    src = load_calibration(tmp_path / "learned")
+    assert src.delta_median == pytest.approx(float(np.median(small_update.samples[:, 0])), rel=1e-12)
+    assert np.median(src.d) == pytest.approx(float(np.median(small_update.samples[:, 1])), rel=1e-12)
+    back = read_calibration(tmp_path / "learned")
+    assert "as-built update" in back.posterior.message and "built.ply" in back.posterior.message
+    assert back.specimens[0].scan == base.specimens[0].scan
+    with pytest.raises(InputError, match="not a calibration folder"):
+        updated_calibration(small_update, small_world.design)
