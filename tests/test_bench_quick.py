@@ -31,6 +31,7 @@ HEADERS = {
     "bench_jacobian_solve.py": ["cvxopt, column by column (s)", "CHOLMOD, all at once (s)", "same bits"],
     "bench_monte_carlo.py": ["| run | wall time (s)", "speed-up vs direct"],
     "bench_plan.py": ["| seed | planned l/L |", "planned: measured", "| seeds | planned smaller |"],
+    "bench_registration.py": ["RMS error of recovered positions (mm)", "inlier share", "success"],
     "bench_refine.py": ["open loop RMS mm (% diag)", "refined RMS mm (% diag)", "ratio"],
     "bench_specimen.py": ["κ₁ polygon (1/m)", "Equation 3 (1/m)", "side / L*"],
     "bench_tolerance.py": ["| preset | mesh (mm) | strings | K |", "validation error", "95 % band: median rel. diff"],
