@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import lsq_linear
 
+from airmat.asbuilt.update import world_slopes
 from airmat.check.compare import deviation
 from airmat.check.refined_design import refined_design
 from airmat.check.refinement import length_bounds
@@ -212,7 +213,6 @@ def correct(design, upd, *, check=None, keep_tolerance: float = CUT_TOLERANCE, a
     Correction
     """
     from airmat.check.inflation_check import design_strings
-    from airmat.asbuilt.update import world_slopes
 
     started = time.perf_counter()
     if not (np.isfinite(keep_tolerance) and keep_tolerance >= 0):
@@ -231,15 +231,8 @@ def correct(design, upd, *, check=None, keep_tolerance: float = CUT_TOLERANCE, a
     trust = np.maximum(np.abs(built_step), trust_radius)    # undoing the built world is always allowed
     lo, hi = np.maximum(lower - med.rest, -trust), np.minimum(upper - med.rest, trust)
     l_old = np.array([s.l_median for s in design.pattern.strings])
-    kept = np.zeros(k, bool)
-    for passes in range(1, MAX_PASSES + 1):
-        step = _solve(a, e, lo, hi, alpha, kept, built_step)
-        l_eff = _real_length(design, theta, med.rest + step, l_old)
-        more = ~kept & (np.abs(l_eff - (l_old + err)) <= keep_tolerance)
-        if not more.any():
-            break
-        kept |= more
-    l_eff = np.where(kept, l_old + err, l_eff)
+    step, l_eff, kept, passes = _keep_or_recut(design, theta, a, e, (lo, hi), alpha, built_step, med.rest,
+                                               l_old + err, keep_tolerance)
     delta = l_eff - (l_old + err)
     at_bound = ~kept & ((step <= lo + 1e-9) | (step >= hi - 1e-9))
     n = len(approx.xyz)
@@ -252,13 +245,7 @@ def correct(design, upd, *, check=None, keep_tolerance: float = CUT_TOLERANCE, a
     g = -r_theta / safe[:, None]                     # dl/dθ at a fixed rest length (0 for a slack string)
     sd = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", g, upd.covariance, g), 0.0))
     built = built_design(design, err)
-    low_flag = at_bound & (delta < 0)
-    corrected = refined_design(design, l_new, np.zeros(k, bool), low_flag)
-    strings = tuple(dataclasses.replace(s, l_lo95=s.l_median - Z95 * v, l_hi95=s.l_median + Z95 * v)
-                    for s, v in zip(corrected.pattern.strings, sd))
-    # inflated as the built mattress was (from the flat mattress, or a refined design's first open loop)
-    corrected = dataclasses.replace(corrected, pattern=dataclasses.replace(corrected.pattern, strings=strings),
-                                    open_loop=design.open_loop)
+    corrected = _corrected_design(design, l_new, at_bound & (delta < 0), sd)
     verified, inf = None, None
     if verify:
         inf = _verify(design, corrected, check, point, theta, params)
@@ -273,6 +260,32 @@ def correct(design, upd, *, check=None, keep_tolerance: float = CUT_TOLERANCE, a
     log.info("as-built correction: %s; predicted RMS %.2f -> %.2f mm (linear)%s", repr(plan), 1e3 * rms_before,
              1e3 * rms_linear, "" if verified is None else f", {1e3 * verified:.2f} mm inflated")
     return out
+
+
+def _keep_or_recut(design, theta, a, e, bounds, alpha, built_step, rest0, l_built, tolerance):
+    """The bounded step and the effective lengths, keeping every string that needs to change by at most
+    ``tolerance`` (m) and solving the others again until the set is stable: (step, l_eff, kept, passes)."""
+    k = len(l_built)
+    l_old = np.array([s.l_median for s in design.pattern.strings])
+    kept = np.zeros(k, bool)
+    for passes in range(1, MAX_PASSES + 1):
+        step = _solve(a, e, *bounds, alpha, kept, built_step)
+        l_eff = _real_length(design, theta, rest0 + step, l_old)
+        more = ~kept & (np.abs(l_eff - l_built) <= tolerance)
+        if not more.any():
+            break
+        kept |= more
+    return step, np.where(kept, l_built, l_eff), kept, passes
+
+
+def _corrected_design(design, l_new, flagged, sd):
+    """The design with the corrected real lengths (m), each with the 95 % interval ±Z95 ``sd`` (m)."""
+    corrected = refined_design(design, l_new, np.zeros(len(l_new), bool), flagged)
+    strings = tuple(dataclasses.replace(s, l_lo95=s.l_median - Z95 * v, l_hi95=s.l_median + Z95 * v)
+                    for s, v in zip(corrected.pattern.strings, sd))
+    # inflated as the built mattress was (from the flat mattress, or a refined design's first open loop)
+    return dataclasses.replace(corrected, pattern=dataclasses.replace(corrected.pattern, strings=strings),
+                               open_loop=design.open_loop)
 
 
 def _plan(built, corrected, tolerance: float) -> RetiePlan:

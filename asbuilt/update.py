@@ -45,6 +45,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from airmat.check.compare import deviation
 from airmat.check.string_world import world_strings
@@ -317,6 +318,17 @@ def _prior(design, cut_tolerance: float, cut_distribution: str):
     return mean, cov, np.sqrt(var)
 
 
+def _subset(points, max_points, seed) -> np.ndarray:
+    """The scan points (M, 3) checked, and at most ``max_points`` of them (a seeded random subset, in order)."""
+    points = np.asarray(points, float)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"scan points: expected an array of shape (M, 3), got {points.shape}")
+    if max_points is not None and len(points) > max_points:
+        keep = np.random.default_rng([seed, 2]).choice(len(points), size=int(max_points), replace=False)
+        points = points[np.sort(keep)]
+    return points
+
+
 def _rigid_columns(xyz: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """(N, 6): the normal component of the three translations and the three rotations about the centroid."""
     p = xyz - xyz.mean(axis=0)
@@ -479,20 +491,13 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         raise InputError(f"max_relinearisations must be 0 .. {MAX_RELINEARISATIONS}, got {max_relinearisations}")
     if not (np.isfinite(cut_tolerance) and cut_tolerance > 0):
         raise InputError(f"the cut tolerance must be > 0 m, got {cut_tolerance!r}")
-    points = np.asarray(points, float)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise InputError(f"scan points: expected an array of shape (M, 3), got {points.shape}")
-    if max_points is not None and len(points) > max_points:
-        keep = np.random.default_rng([seed, 2]).choice(len(points), size=int(max_points), replace=False)
-        points = points[np.sort(keep)]
+    points = _subset(points, max_points, seed)
     if check is None:
         check = run_check(design, resolution=resolution, params=params, envelope=False)
     surface, med, faces = check.surface, check.runs["median"], design.approx.faces
     strings = design_strings(design, "median", lengths=check.lengths)
     mean0, cov0, s = _prior(design, cut_tolerance, cut_distribution)
-    prior_prec = np.zeros((k + 2, k + 2))
-    prior_prec[:2, :2] = np.linalg.inv(cov0)
-    prior_prec[2:, 2:] = np.diag(1.0 / s ** 2)
+    prior_prec = block_diag(np.linalg.inv(cov0), np.diag(1.0 / s ** 2))
     cal = design.calibration
     theta = np.array([cal.delta_median, float(np.median(cal.d))])
     point = first = Prediction(theta, np.zeros(k), strings.rest, med.inflation, med.deviation,
