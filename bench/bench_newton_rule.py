@@ -8,12 +8,12 @@ Usage::
 
 A step of the trust-region Newton method (:func:`airmat.inflation.solver.solve`) that does not
 lower U_B is either retried with a larger shift (``"shift"``: a new Cholesky factorization, the
-shift ×4: the rule of airmat 0.1) or halved along the same direction (``"backtrack"``: no new
-factorization, the shift ×2 for the next iteration: the rule of the check's inflations now). Each
+shift ×4) or halved along the same direction (``"backtrack"``: no new
+factorization, the shift ×2 for the next iteration: the check's inflations). Each
 preset's open-loop design (paper calibration, seed 0) is inflated from the flat mattress under
 both rules, one after the other; the table gives their times, Newton iterations, residuals and
 the largest distance between the two equilibria's vertices (the same rigid pins: no alignment).
-Targets (issue 40): small mattress ≤ 2 s, large ≤ 10 s at 20 mm, the same equilibrium within 0.1 mm.
+Targets: small mattress ≤ 2 s, large ≤ 10 s at 20 mm, the same equilibrium within 0.1 mm.
 """
 
 from __future__ import annotations
