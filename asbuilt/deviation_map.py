@@ -7,7 +7,8 @@ with interpolated normals; points that project outside the reference's
 outline or lie farther than ``max_distance`` from it (clutter, the floor, the
 sides) are not the surface and are left out. A vertex's deviation is the mean
 of those of the scan points whose foot point on the reference lies within
-``radius`` of it, NaN where the scan has none (a hole, the part not scanned).
+``radius`` of it, NaN where the scan has fewer than three (a hole, the part not scanned: a stray
+point above a hole is not the surface).
 The same map serves both references of ``airmat correct``: Ŝ (the design's
 approximation) and the prediction (the check's median inflated top face).
 Lengths in metres inside; the figure and the PLY file are in millimetres.
@@ -28,6 +29,8 @@ from airmat.units import M_TO_MM
 
 __all__ = ["DeviationMap", "deviation_map", "deviation_figure", "write_deviation_ply"]
 
+#: fewest scan points a vertex's value needs: a stray point over a hole is not the surface
+_MIN_POINTS = 3
 #: colour of a vertex the scan does not cover, in the PLY file (RGBA)
 _NO_DATA_RGBA = (160, 160, 160, 255)
 
@@ -42,7 +45,7 @@ class DeviationMap(Summarized):
         Signed deviation of each scan point (m); NaN for a point that is not on the surface (outside
         the outline or farther than ``max_distance``).
     per_vertex : ndarray of shape (V,)
-        Mean deviation of the scan points near each reference vertex (m); NaN where there are none.
+        Mean deviation of the scan points near each reference vertex (m); NaN where there are fewer than three.
     rms, max, p95 : float
         RMS, largest absolute value and 95th percentile of the absolute value of ``per_vertex`` over
         the covered vertices (m).
@@ -143,8 +146,9 @@ def _area(v, f) -> float:
     return float(0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum())
 
 
-def _vertex_means(vertices, feet, values, radius, k=32):
-    """(V,) mean of ``values`` over the (up to ``k`` nearest) ``feet`` within ``radius`` of each vertex; NaN if none."""
+def _vertex_means(vertices, feet, values, radius, k=32, min_points=_MIN_POINTS):
+    """(V,) mean of ``values`` over the (up to ``k`` nearest) ``feet`` within ``radius`` of each vertex; NaN where
+    fewer than ``min_points`` are."""
     from pykdtree.kdtree import KDTree
 
     if len(feet) == 0:
@@ -156,7 +160,7 @@ def _vertex_means(vertices, feet, values, radius, k=32):
     vals = np.where(hit, values[np.where(hit, idx, 0)], 0.0)
     n = hit.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > 0, vals.sum(axis=1) / n, np.nan)
+        return np.where(n >= min_points, vals.sum(axis=1) / n, np.nan)
 
 
 def _summarize(per_point, per_vertex, vertices, radius) -> DeviationMap:
