@@ -173,7 +173,7 @@ def sample_surface(vertices: np.ndarray, faces: np.ndarray, n: int, *, seed=0):
 
 def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_faces: np.ndarray, *, seed=0,
              units: str = "auto", voxel: float | None = None, inlier_distance: float = 0.015,
-             min_inlier_share: float = 0.8, max_rms: float | None = None, min_coverage: float = 0.3,
+             min_inlier_share: float = 0.8, max_rms: float | None = None, min_coverage: float = 0.5,
              n_reference_samples: int = 200_000, remove_floor: bool = True,
              init: tuple | None = None, name: str = "the scan") -> Registration:
     """Register a scan onto a reference surface (the predicted inflated top face), robustly.
@@ -544,4 +544,5 @@ def _refuse_mismatch(reg, name, inlier_distance, min_share, max_rms, min_coverag
                          "another design, or a noisy scan?", **data)
     if reg.coverage < min_coverage:
         raise InputError(f"{name} covers only {100 * reg.coverage:.0f} % of the predicted shape (at least "
-                         f"{100 * min_coverage:.0f} % needed): scan more of the mattress's top face", **data)
+                         f"{100 * min_coverage:.0f} % needed): scan more of the mattress's top face, or it is not "
+                         "this design", **data)
