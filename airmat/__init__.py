@@ -60,6 +60,8 @@ _FACADE = {
     "tolerance": "airmat.check.tolerance:tolerance",
     "refine": "airmat.check.refinement:refine",
     "write_report": "airmat.report.page:write_report",
+    # the physical loop
+    "correct": "airmat.asbuilt.pipeline:correct",
 }
 _SUBPACKAGES = ("calib", "design", "inflation", "check", "report", "synthetic", "asbuilt", "cli")
 

@@ -1,5 +1,7 @@
 """The physical loop: a scan of the built, inflated mattress back to its string lengths.
 
+:func:`airmat.correct` (``pipeline.correct``) runs the steps in order; ``correct_io`` writes its folder.
+
 Modules (SI units inside: metres, 1/m; millimetres in files):
 
 - ``true_world`` -- a design inflated in a "true world" whose (Δ, d) and cut errors differ from
@@ -9,6 +11,7 @@ Modules (SI units inside: metres, 1/m; millimetres in files):
 - ``deviation_map`` -- the registered scan against Ŝ and against the prediction.
 - ``update`` -- the calibration posterior and each string's length error updated with the scan
   as data, through the inflation's Jacobian (Laplace).
+- ``updated_calibration`` -- the updated posterior as a calibration (``airmat design --calibration``).
 - ``correction`` -- corrected string lengths and the re-tie list (``airmat correct``).
 """
 

@@ -61,7 +61,7 @@ from airmat.inflation.strings import StringSet, check_resolution
 from airmat.summary import Summarized, mm
 from airmat.units import M_TO_MM
 
-__all__ = ["World", "BuiltMattress", "CUT_DISTRIBUTIONS", "median_world", "draw_cut_errors", "built_world",
+__all__ = ["World", "BuiltMattress", "CUT_DISTRIBUTIONS", "median_world", "draw_cut_errors", "built_world", "upper_face",
            "truth_dict"]
 
 log = logging.getLogger(__name__)
@@ -305,7 +305,7 @@ def built_world(design, world: World, *, resolution: float = 0.020, params: Para
         log.warning("the as-built inflation did not converge: %s", inf.message)
     dev = deviation(inf, design.approx.xyz, design.approx.uv, named_face(design, string_set))
     xyz = dev.apply(inf.xyz)
-    upper, triangles = _upper_face(inf.mesh, xyz)
+    upper, triangles = upper_face(inf.mesh, xyz)
     log.info("built in Δ = %.1f mm, d = %.1f mm: %d Newton iterations in %.1f s; %s face %.1f mm RMS from Ŝ",
              world.delta * M_TO_MM, world.d * M_TO_MM, inf.n_iter, inf.seconds, dev.surface, dev.rms * M_TO_MM)
     return BuiltMattress(world=world, strings=string_set, lengths=ws,
@@ -315,8 +315,22 @@ def built_world(design, world: World, *, resolution: float = 0.020, params: Para
                          open_loop=None if base is None else replace(base, mesh=mesh, levels=()))
 
 
-def _upper_face(mesh, xyz) -> tuple:
-    """The face whose outward normals point to +z on the whole, and its outward-oriented triangles."""
+def upper_face(mesh, xyz) -> tuple:
+    """The face a scanner above the mattress sees: the one whose outward normals point to +z on the whole.
+
+    Parameters
+    ----------
+    mesh : airmat.inflation.mesh.MattressMesh
+    xyz : ndarray of shape (n, 3)
+        The mattress's vertices in a frame whose +z is up (m).
+
+    Returns
+    -------
+    name : str
+        ``"top"`` or ``"bottom"``.
+    triangles : ndarray of shape (t, 3)
+        Its triangles, outward oriented, as indices into ``xyz``.
+    """
     top = mesh.top[mesh.grid_faces]                 # CCW seen from above in the flat mattress: outward
     bottom = mesh.bottom[mesh.grid_faces[:, ::-1]]
     nz = np.cross(xyz[top[:, 1]] - xyz[top[:, 0]], xyz[top[:, 2]] - xyz[top[:, 0]])[:, 2]

@@ -79,7 +79,7 @@ class Scan:
 
 
 def read_scan(path: str | os.PathLike, *, units: str | None = None, n_mesh_samples: int = 200_000,
-              seed=0, scan_index: int | None = None) -> Scan:
+              seed=0, scan_index: int | None = None, specimen: bool = True) -> Scan:
     """Read a scan file and return its finite points in metres.
 
     Parameters
@@ -100,6 +100,11 @@ def read_scan(path: str | os.PathLike, *, units: str | None = None, n_mesh_sampl
     scan_index : int, optional
         Scan of a multi-scan E57 to read; by default all of them, merged in
         one frame with their poses.
+    specimen : bool
+        Refuse an extent no specimen scan has (below :data:`MIN_EXTENT` or above
+        :data:`MAX_EXTENT`), naming the unit that would fit. False for scans whose
+        size is checked against something else (a built mattress, registered onto its
+        design: :mod:`airmat.asbuilt.registration` detects the unit from the sizes).
 
     Returns
     -------
@@ -110,8 +115,8 @@ def read_scan(path: str | os.PathLike, *, units: str | None = None, n_mesh_sampl
     airmat.errors.InputError
         With ``path`` set, when the file is missing or unreadable, empty,
         truncated, of an unsupported format, holds fewer than
-        :data:`MIN_POINTS` finite points, or its extent (robust bounding
-        diagonal) is below :data:`MIN_EXTENT` or above :data:`MAX_EXTENT`
+        :data:`MIN_POINTS` finite points, or (with ``specimen``) its extent (robust
+        bounding diagonal) is below :data:`MIN_EXTENT` or above :data:`MAX_EXTENT`
         after the unit conversion.
 
     Examples
@@ -151,7 +156,7 @@ def read_scan(path: str | os.PathLike, *, units: str | None = None, n_mesh_sampl
     points = points * factor
     quant = _quantization(raw, lo, hi, len(finite)) * factor
     _check_count_and_extent(points, path, unit, n_bad=n_bad, explicit=units is not None,
-                            format_units=raw.units is not None)
+                            format_units=raw.units is not None, extent=specimen)
     if n_bad:  # after the checks: a refused scan gets one line, not a warning too
         log.warning("%s: dropped %d of %d points with non-finite coordinates", path, n_bad, len(vertices))
     return Scan(points=points, path=str(path), n_nonfinite_dropped=n_bad, kind=kind, offset=offset * factor,
@@ -221,7 +226,7 @@ def _length(metres: float) -> str:
     return f"{metres:.3g} m" if metres >= 1 else f"{metres * 1e3:.3g} mm"
 
 
-def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units):
+def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units, extent: bool = True):
     """Too few points, or an extent no specimen scan has.
 
     The hint names the ``--scan-units`` that reads the file as a typical specimen
@@ -234,6 +239,8 @@ def _check_count_and_extent(points, path, unit, *, n_bad, explicit, format_units
         dropped = f", {n_bad} of {n + n_bad} were NaN or infinite" if n_bad else ""
         raise InputError(f"only {n} finite points{dropped} (need at least {MIN_POINTS})",
                          path=path, n_points=n)
+    if not extent:
+        return
     step = max(n // _EXTENT_SAMPLE, 1)  # a systematic subsample: the bounds are a plausibility check
     lo, hi = np.percentile(points[::step], [0.5, 99.5], axis=0)
     extent = float(np.linalg.norm(hi - lo))

@@ -134,6 +134,12 @@ def _refine_section(b: dict) -> str:
     def row(label, d):
         return [label, f"{d['rms_mm']:.1f}", f"{d['rms_pct_diag']:.2f}", f"{d['max_mm']:.1f}"]
 
+    if "deviation_before" not in b:          # corrected from a scan of the built mattress (airmat correct)
+        after = b.get("rms_verified_mm") if b.get("rms_verified_mm") is not None else b.get("rms_linear_mm")
+        return (f"<h3>String lengths corrected from a scan of the built mattress</h3>\n"
+                f"<p>{escape(str(b.get('method', '')))}: {b.get('recut', 0)} strings re-cut, {b.get('kept', 0)} "
+                f"kept; the face's predicted RMS from Ŝ {b.get('rms_before_mm', float('nan')):.1f} mm as built, "
+                f"{after:.1f} mm after the re-cut.</p>\n")
     coarse = b.get("coarse_resolution_mm")
     mesh = f"{b['resolution_mm']:g} mm" + (f" (the iterations on the {coarse:g} mm mesh)" if coarse else "")
     rows = [row(f"before ({b.get('lengths_before', 'open-loop')} lengths)", b["deviation_before"]),
@@ -197,7 +203,7 @@ def design_part(result) -> Part:
     b = getattr(result, "refine", None)
     if b:
         body += _refine_section(b)
-        if not b["converged"]:
+        if not b.get("converged", True):
             banners.append(("warn", f"The refinement did not converge: {b['message']}"))
     body += "<h3>Ŝ in 3D</h3>\n" + figure_html(surface_figure(result), "design-surface", height=600)
     if pat.strings:

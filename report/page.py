@@ -54,7 +54,7 @@ def plotly_js() -> str:
 
 
 def report_html(*, calibration=None, design=None, check=None, summary: str | None = None,
-                title: str = "airmat report", truth: dict | None = None) -> str:
+                title: str = "airmat report", truth: dict | None = None, asbuilt=None) -> str:
     """The whole page for the objects given (any subset; the check brings its design if none is given).
 
     A verdict card opens the page (:mod:`airmat.report.verdict`): the check's when there is one,
@@ -71,6 +71,8 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
     truth : dict, optional
         The truth of a synthetic calibration set (``delta_mm``, ``d_mm``, optionally ``sigma_per_m``),
         shown beside the calibration's posterior.
+    asbuilt : airmat.asbuilt.pipeline.AsBuilt, optional
+        A scan of the built mattress and its correction (``airmat correct``): its part comes first.
 
     Returns
     -------
@@ -80,6 +82,9 @@ def report_html(*, calibration=None, design=None, check=None, summary: str | Non
     if calibration is None and design is None and check is None:
         raise ValueError("a report needs a calibration, a design or a check")
     parts = []
+    if asbuilt is not None:
+        from airmat.report.asbuilt import asbuilt_part
+        parts.append(asbuilt_part(asbuilt))
     # each part imports its own stage's packages: a calibration report loads no design code
     if calibration is not None:
         from airmat.report.calibration import calibration_part

@@ -149,7 +149,14 @@ def design_verdict(design) -> Verdict:
                      "(cutting list, lo95 – hi95).")
     if design.calibration.uncalibrated:
         facts.append(f"UNCALIBRATED: {design.calibration.label}.")
-    if b:
+    if b and "deviation_after" not in b:        # corrected from a scan of the built mattress (airmat correct)
+        after = b.get("rms_verified_mm") if b.get("rms_verified_mm") is not None else b.get("rms_linear_mm")
+        headline = (f"Corrected from a scan of the built mattress: re-cut {b.get('recut', 0)} strings, keep "
+                    f"{b.get('kept', 0)}; the face is predicted {after:.1f} mm RMS from Ŝ after the re-cut.")
+        cmd, why = (f"airmat check {folder} --out DIR", "inflates the corrected lengths with their lo95 / hi95 "
+                    "envelope")
+        kind = "ok"
+    elif b:
         a = b["deviation_after"]
         within = a["rms_pct_diag"] <= WITHIN_PCT_DIAG
         headline = (f"Lands within {WITHIN_PCT_DIAG:g} % of the diagonal: {'yes' if within else 'no'} (refined: "

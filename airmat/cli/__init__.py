@@ -31,7 +31,7 @@ from airmat.progress import set_progress  # noqa: E402
 __all__ = ["main", "build_parser"]
 
 #: subcommand modules, in the order ``--help`` lists them
-COMMANDS = ("synth", "synth-built", "fit", "calibrate", "plan", "design", "refine", "inflate", "retie", "export",
+COMMANDS = ("synth", "synth-built", "correct", "fit", "calibrate", "plan", "design", "refine", "inflate", "retie", "export",
             "report", "validate", "gallery", "demo", "presets", "info")
 
 log = logging.getLogger("airmat")

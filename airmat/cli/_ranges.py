@@ -36,6 +36,8 @@ RANGES = {
     "--resolution-mm": (0.0, 75.0, False, "mm"),
     "--points": (10_000, 10_000_000, True, "points"),
     "--mattress": (50.0, 20_000.0, True, "mm"),   # per side; parsed by airmat.cli.design.parse_size_mm
+    "--cut-tolerance-mm": (0.0, 50.0, False, "mm"),
+    "--keep-tolerance-mm": (0.0, 50.0, False, "mm"),
 }
 
 
