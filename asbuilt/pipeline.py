@@ -36,7 +36,7 @@ from airmat.errors import InputError
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
-__all__ = ["AsBuilt", "correct", "MAX_DISTANCE", "REGISTRATION"]
+__all__ = ["AsBuilt", "correct", "scanned_target", "MAX_DISTANCE", "REGISTRATION"]
 
 log = logging.getLogger(__name__)
 
@@ -72,7 +72,8 @@ class AsBuilt(Summarized):
     points : ndarray of shape (M, 3)
         The scan points on the face, in Ŝ's frame (m).
     to_target : airmat.asbuilt.deviation_map.DeviationMap
-        The points against Ŝ (only meaningful as a distance when the scanned face is the named one).
+        The points against the scanned face's target (:func:`scanned_target`: Ŝ itself when the scanned
+        face is the named one).
     to_prediction : airmat.asbuilt.deviation_map.DeviationMap
         The points against the predicted face.
     update : airmat.asbuilt.update.Update
@@ -106,6 +107,23 @@ class AsBuilt(Summarized):
                            ("to Ŝ", mm(self.to_target.rms)), ("to prediction", mm(self.to_prediction.rms)),
                            ("re-tie", repr(c.plan)[len("<RetiePlan: "):-1]),
                            ("after correction", f"{mm(after, 2)} ({100 * after / c.diagonal:.2f} % of the diagonal)")]
+
+
+def scanned_target(design, named: str, scanned: str) -> np.ndarray:
+    """Where Ŝ puts the scanned face, (N, 3) at Ŝ's vertices (m).
+
+    Ŝ is the named face's target (:func:`airmat.check.inflation_check.named_face`). A scanner sees
+    the face looking up; when that is the other face, its target lies the mattress's thickness
+    above Ŝ, along Ŝ's normals turned up (the faces of a drop-stitch mattress stay that far apart).
+    """
+    a = design.approx
+    if scanned == named:
+        return a.xyz
+    from airmat.design.curvature import vertex_normals
+
+    n = vertex_normals(a.xyz, a.faces)
+    n = n if n[:, 2].sum() >= 0 else -n
+    return a.xyz + design.mattress.thickness * n
 
 
 def _scan_points(scan, scan_units, seed) -> tuple:
@@ -183,9 +201,11 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     xyz = med.deviation.apply(med.inflation.xyz)
     surface, triangles = upper_face(med.inflation.mesh, xyz)
     notes = []
+    target = scanned_target(design, check.surface, surface)
     if surface != check.surface:
-        notes.append(f"the scanner sees the {surface} face; the design's deviation is measured on the "
-                     f"{check.surface} face: the update learns from the {surface} face")
+        notes.append(f"the scanner sees the {surface} face, Ŝ is the {check.surface} face's target: the scan is "
+                     f"compared with Ŝ moved the mattress's thickness up, and the correction lands the {surface} "
+                     "face there")
     reg = register(raw, xyz, triangles, seed=seed, units=units, name=name, **REGISTRATION)
     if reg.n_equivalent > 1:
         notes.append(f"the shape fits {reg.n_equivalent} poses of the scan about as well (a symmetric shape): "
@@ -195,13 +215,17 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     on = np.isfinite(to_pred.per_point)
     pts = pts[on]
     to_pred = deviation_map(pts, xyz, triangles, max_distance=MAX_DISTANCE, seed=seed)
-    a = design.approx
-    to_target = deviation_map(pts, a.xyz, a.faces, max_distance=MAX_DISTANCE, seed=seed)
+    to_target = deviation_map(pts, target, design.approx.faces, max_distance=MAX_DISTANCE, seed=seed)
+    # the update and the correction work on the scanned face, against its target
+    seen = design if target is design.approx.xyz else \
+        dataclasses.replace(design, approx=dataclasses.replace(design.approx, xyz=target))
     scanned = dataclasses.replace(check, surface=surface)
     kw = {} if max_relinearisations is None else {"max_relinearisations": max_relinearisations}
-    upd = update(design, pts, check=scanned, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
+    upd = update(seen, pts, check=scanned, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
                  seed=seed, **kw)
-    corr = correct_lengths(design, upd, check=scanned, keep_tolerance=keep_tolerance, verify=verify, params=params)
+    corr = correct_lengths(seen, upd, check=scanned, keep_tolerance=keep_tolerance, verify=verify, params=params)
+    if seen is not design:
+        corr = dataclasses.replace(corr, design=dataclasses.replace(corr.design, approx=design.approx))
     calibration = None
     try:
         from airmat.asbuilt.updated_calibration import updated_calibration

@@ -31,7 +31,9 @@ COLOURS = {"keep": "0.6", "recut": "tab:blue", "move": "tab:orange", "remove": "
 
 
 def _nodes(s) -> str:
-    return "" if s is None else f"R{s.dash.a_node[0]}C{s.dash.a_node[1]}-R{s.dash.b_node[0]}C{s.dash.b_node[1]}"
+    if s is None or s.dash.a_node is None or s.dash.b_node is None:     # no string, or one not tied to the grid
+        return ""
+    return f"R{s.dash.a_node[0]}C{s.dash.a_node[1]}-R{s.dash.b_node[0]}C{s.dash.b_node[1]}"
 
 
 def _mm(x: float):
