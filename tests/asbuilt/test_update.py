@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from airmat.asbuilt.update import scan_data, update, world_slopes
+from airmat.asbuilt.update import known_face_update, scan_data, update, world_slopes
 from airmat.asbuilt.updated_calibration import updated_calibration
 from airmat.check.compare import deviation
 from airmat.check.inflation_check import check, design_strings
@@ -21,7 +21,7 @@ from airmat.check.string_world import world_strings
 from airmat.design.calibration_source import CalibrationSource, load_calibration
 from airmat.design.design_io import read_design
 from airmat.errors import InputError
-from airmat.inflation.simulate import inflate
+from airmat.inflation.simulate import inflate, inflate_from
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "cli"))
 from test_inflate_cli import make_design  # noqa: E402
@@ -64,10 +64,17 @@ def scan(face, faces, n, rng):
 
 
 def true_world(design, chk, delta, d, cut, *, seed=0, n=SCAN_POINTS):
-    """The design built in the world (Δ, d, cut errors), inflated the check's way, and scanned."""
+    """The design built in the world (Δ, d, cut errors), inflated the check's way, and scanned.
+
+    The check's way, as :func:`airmat.asbuilt.true_world.built_world` builds: from the flat mattress, or a
+    refined design's open-loop equilibrium carried on. Inflated from the flat mattress instead, refined vault1
+    lands 0.55 mm RMS (6 mm at most) from the check's equilibrium at the same rest lengths, a wrinkle pattern
+    the update's model (the check's) cannot make: that is a test of another path, not of the update.
+    """
     rest = world_strings(design, delta, d, cut_error=cut).rest
     strings = replace(design_strings(design, lengths=chk.lengths), rest=rest)
-    inf = inflate(chk.runs["median"].inflation.mesh, strings)
+    inf = (inflate_from(chk.open_loop, strings) if chk.open_loop is not None
+           else inflate(chk.runs["median"].inflation.mesh, strings))
     assert inf.converged
     built = deviation(inf, design.approx.xyz, design.approx.uv, chk.surface)
     points = scan(built.aligned, design.approx.faces, n, np.random.default_rng(seed))
@@ -139,6 +146,19 @@ def test_the_posterior_covers_the_world_and_is_narrower_than_the_prior(small_upd
     assert u.samples.shape == (2000, 3) and np.all(u.samples[:, 1] > 0)
     assert np.allclose(u.samples[:, :2].mean(axis=0), u.mean, atol=4 * np.sqrt(np.diag(u.covariance) / 2000))
     assert "Update" in repr(u) and "Δ" in repr(u)
+
+
+def test_the_converged_update_reaches_the_posterior_with_the_face_known(small_update, small_world):
+    """A scan of a face the model makes: the converged update is the posterior given the world's rest
+    lengths, moved only by the scan's noise, whose share of the variance is what the update adds to it
+    (3 sd of that share); the known rest lengths leave a narrower posterior."""
+    u, w = small_update, small_world
+    x, cov = known_face_update(w.design, w.rest, cut_tolerance=0.003)
+    var_scan = np.diag(u.covariance) - np.diag(cov[:2, :2])
+    assert np.all(var_scan > 0), var_scan
+    assert np.all(np.abs(u.mean - x[:2]) <= 3 * np.sqrt(var_scan)), (u.mean - x[:2], np.sqrt(var_scan))
+    with pytest.raises(InputError, match="shape"):
+        known_face_update(w.design, w.rest[:1])
 
 
 def test_a_rigid_motion_of_the_scan_changes_nothing(small_update, small_world):
