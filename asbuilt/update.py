@@ -385,6 +385,16 @@ def _linearisation(point, faces, points) -> tuple:
                          rigid=_rigid_columns(point.deviation.aligned, normal)[c], rest=point.rest)
 
 
+def _objective(lin: _Linear, x, prior_mean, prior_prec, tau2) -> float:
+    """The MAP objective at the linearisation's own point x (k + 2,): half the weighted squared misfit of the
+    scan from that inflation after the best rigid motion, plus half the prior's Mahalanobis distance."""
+    root = 1.0 / np.sqrt(tau2 + lin.var_scan)
+    g, y = lin.rigid * root[:, None], lin.y * root
+    r = y - g @ np.linalg.lstsq(g, y, rcond=None)[0]
+    dx = x - prior_mean
+    return 0.5 * float(r @ r) + 0.5 * float(dx @ prior_prec @ dx)
+
+
 def _map(design, lin: _Linear, x0, prior_mean, prior_prec, tau2, k):
     """The MAP of (θ, e) under the face linear in the rest lengths and the exact chain rest(θ, e).
 
@@ -550,20 +560,39 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
     prior_mean = np.concatenate([mean0, np.zeros(k)])
     x = np.concatenate([theta, np.zeros(k)])
     history, converged, inflations, rms_before, tau2 = [], False, 0, None, None
+    names = ("delta", "d") + tuple(f"string {st.dash.id}" for st in design.pattern.strings)
+    raised = False                 # the last step raised the objective and was not taken
+    best = None                    # the accepted linearisation: (its point's parameters, _Linear, ScanData, point)
     for it in range(max_relinearisations + 1):
         data, lin = _linearisation(point, faces, points)
+        at = np.concatenate([point.theta, point.error])
         if rms_before is None:
             rms_before = float(np.sqrt(np.mean(lin.y ** 2)))
             tau2 = rms_before ** 2
-        x_old = x
+        elif (_objective(lin, at, prior_mean, prior_prec, tau2)
+              > _objective(best[1], best[0], prior_mean, prior_prec, tau2)):
+            # the Gauss–Newton step raised the exact objective (the face is not linear that far): halve it
+            # from the accepted point, or, with no inflation left, take the accepted point's linearisation
+            if it < max_relinearisations:
+                back = 0.5 * (best[0] + at)
+                log.info("as-built update, linearisation %d: the step raised the MAP objective, halved", it + 1)
+                point = _predict(design, check, strings, back[:2], back[2:], surface, params)
+                inflations += 1
+                continue
+            at, lin, data, point = best
+            raised = True
+        best = (at, lin, data, point)
+        x_old, x = x, at
         x, joint, resid, tau2, inner = _map(design, lin, x, prior_mean, prior_prec, tau2, k)
         sd = np.sqrt(np.maximum(np.diag(joint), 1e-300))
-        step = float(np.max(np.abs(x - x_old) / sd))
+        moved = np.abs(x - x_old) / sd
+        step, most = float(np.max(moved)), names[int(np.argmax(moved))]
         history.append(x[:2])
         log.info("as-built update, linearisation %d (%d inner steps): scan %.3f mm RMS from the prediction; "
-                 "delta %.2f mm, d %.2f mm, step %.2f sd, residual %.3f mm", it + 1, inner,
-                 1e3 * np.sqrt(np.mean(lin.y ** 2)), 1e3 * x[0], 1e3 * x[1], step, 1e3 * np.sqrt(np.mean(resid ** 2)))
-        if it > 0 and step < STEP_TOL:
+                 "delta %.2f mm, d %.2f mm, step %.2f sd (%s), residual %.3f mm", it + 1, inner,
+                 1e3 * np.sqrt(np.mean(lin.y ** 2)), 1e3 * x[0], 1e3 * x[1], step, most,
+                 1e3 * np.sqrt(np.mean(resid ** 2)))
+        if it > 0 and step < STEP_TOL and not raised:
             converged = True
             break
         if it == max_relinearisations:
@@ -571,6 +600,8 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         point = _predict(design, check, strings, x[:2], x[2:], surface, params)
         inflations += 1
     message = (f"converged after {len(history)} linearisations" if converged else
+               "not converged: the last step raised the MAP objective (the accepted point's linearisation is "
+               "kept)" if raised else
                f"not converged: the last step was {step:.2f} posterior sd (tolerance {STEP_TOL})"
                if len(history) > 1 else "one linearisation (no relinearisation asked)")
     if not converged:
