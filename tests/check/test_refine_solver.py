@@ -80,7 +80,8 @@ def test_the_trials_solve_with_their_own_rule_for_a_refused_step(case, monkeypat
     import airmat.inflation.solver as sv
 
     prob, s, inf = _problem(case, tol=1e-8)
-    seen = []
+    seen, check_rule = [], (sv.REFUSED_STEP, sv.MU_UP)
+    assert te.TRIAL_REFUSED_STEP == ("shift", 4.0) and check_rule == ("backtrack", 2.0)   # the documented rules
 
     def solve(*args, **kwargs):
         seen.append((kwargs["refused_step"], kwargs["mu_up"]))
@@ -92,7 +93,7 @@ def test_the_trials_solve_with_their_own_rule_for_a_refused_step(case, monkeypat
         eq = prob.equilibrium(s.rest, inf.xyz + 1e-4)
         assert eq is not None and eq.converged
         assert seen[-1] == rule
-    assert sv.REFUSED_STEP == "shift" and sv.MU_UP == 4.0        # the check's own inflations keep theirs
+    assert (sv.REFUSED_STEP, sv.MU_UP) == check_rule        # the check's own inflations keep theirs
 
 
 def test_adjoint_gradient_and_jacobian_match_finite_differences(case):

@@ -129,3 +129,10 @@ def test_a_missing_design_folder_is_named_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"airmat synth-built: {tmp_path / 'nowhere'}: ")
     assert not out.exists()
+
+
+def test_the_help_s_scan_formats_are_the_writer_s():
+    from airmat.cli.synth_built import SCAN_FORMATS
+    from airmat.synthetic.scan_write import FORMATS
+
+    assert SCAN_FORMATS == tuple(sorted(FORMATS))
