@@ -166,7 +166,8 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     keep_tolerance : float
         A string whose length needs to change by at most this is kept (m).
     max_relinearisations : int, optional
-        Of the update (default its own).
+        Of the update; default :data:`airmat.asbuilt.update.MAX_RELINEARISATIONS` (each one inflation: the
+        face is far from linear in the rest lengths, and fewer leave the update short of converged).
     base_calibration : airmat.calib.calibrate.Calibration, optional
         The cylinder calibration the design was made from; default read from its folder.
     seed : int
@@ -220,9 +221,11 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     seen = design if target is design.approx.xyz else \
         dataclasses.replace(design, approx=dataclasses.replace(design.approx, xyz=target))
     scanned = dataclasses.replace(check, surface=surface)
-    kw = {} if max_relinearisations is None else {"max_relinearisations": max_relinearisations}
+    from airmat.asbuilt.update import MAX_RELINEARISATIONS
+
     upd = update(seen, pts, check=scanned, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
-                 seed=seed, **kw)
+                 seed=seed, max_relinearisations=MAX_RELINEARISATIONS if max_relinearisations is None
+                 else max_relinearisations)
     corr = correct_lengths(seen, upd, check=scanned, keep_tolerance=keep_tolerance, verify=verify, params=params)
     if seen is not design:
         corr = dataclasses.replace(corr, design=dataclasses.replace(corr.design, approx=design.approx))

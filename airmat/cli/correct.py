@@ -42,6 +42,8 @@ def add_parser(sub, parents):
                    help="how well strings are cut and tied, +-mm: the prior of each tie's error (default 3)")
     p.add_argument("--keep-tolerance-mm", type=float, default=1.0,
                    help="a string whose length would change by at most this is kept (mm, default 1)")
+    p.add_argument("--relinearisations", type=int, default=5, metavar="N",
+                   help="relinearisations of the update, each one inflation (a count 0 to 5, default 5)")
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="the cylinder calibration the design was made from (default: the design's own "
                         "calibration folder)")
@@ -63,6 +65,8 @@ def run(args) -> int:
 
     for name in ("--resolution-mm", "--cut-tolerance-mm", "--keep-tolerance-mm"):
         check_range(name, getattr(args, name[2:].replace("-", "_")))
+    if not 0 <= args.relinearisations <= 5:
+        raise InputError(f"--relinearisations: {args.relinearisations} is outside 0 to 5")
     scan = Path(args.scan)
     if not scan.is_file():
         raise InputError(f"{scan}: no such scan file" if not scan.exists() else f"{scan}: not a file")
@@ -76,7 +80,7 @@ def run(args) -> int:
     check()
     res = correct(design, scan, resolution=args.resolution_mm * MM, scan_units=args.scan_units,
                   cut_tolerance=args.cut_tolerance_mm * MM, keep_tolerance=args.keep_tolerance_mm * MM,
-                  base_calibration=base, seed=args.seed)
+                  base_calibration=base, seed=args.seed, max_relinearisations=args.relinearisations)
     with staged(args.out) as tmp:
         doc = write_correct(Path(tmp), res)
         write_report(tmp, design=res.correction.design, asbuilt=res, title=f"airmat correct: {design.name}")
