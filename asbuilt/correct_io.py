@@ -14,6 +14,7 @@
   prediction, on Ω; ``deviation.ply``: Ŝ with each vertex's deviation from the scan (mm) and a colour;
 - ``report.html`` (written by the command, :func:`airmat.report.page.write_report` with ``asbuilt=``):
   the as-built part and the corrected design.
+
 Write inside ``airmat.atomic.staged_dir``: the folder appears whole or not at all.
 """
 

@@ -210,7 +210,7 @@ class BuiltMattress(Summarized):
         return self.deviation.surface
 
     @property
-    def converged(self) -> bool:
+    def inflation_converged(self) -> bool:
         """True when the inflation (and a refined design's open-loop one) converged."""
         return bool(self.inflation.converged and (self.open_loop is None or self.open_loop.converged))
 
@@ -221,7 +221,7 @@ class BuiltMattress(Summarized):
                                  ("|cut error| max", mm(float(e.max()))),
                                  ("deviation", f"{mm(dev.rms)} RMS ({dev.rms_pct_diag:.2f} % of the diagonal, "
                                                f"{dev.surface} face)"),
-                                 ("converged", self.converged)]
+                                 ("converged", self.inflation_converged)]
 
 
 def _cut_errors(design, world: World, seed, recut) -> np.ndarray:
@@ -366,7 +366,7 @@ def truth_dict(built: BuiltMattress, design=None) -> dict:
                      "seed": w.seed},
            "strings": rows,
            "resolution_mm": built.resolution * M_TO_MM,
-           "inflation": {"converged": built.converged, "iterations": int(inf.n_iter),
+           "inflation": {"converged": built.inflation_converged, "iterations": int(inf.n_iter),
                          "residual": float(inf.residual), "message": inf.message},
            "deviation": {"surface": dev.surface, "rms_mm": dev.rms * M_TO_MM, "max_mm": dev.max * M_TO_MM,
                          "rms_pct_diag": dev.rms_pct_diag},

@@ -38,7 +38,7 @@ def test_the_median_world_without_cut_errors_is_checks_median_run(small):
     assert np.abs(built.inflation.xyz - run.inflation.xyz).max() <= 1e-9
     assert np.abs(built.xyz - run.deviation.apply(run.inflation.xyz)).max() <= 1e-9
     assert built.surface == run.deviation.surface and built.deviation.rms == pytest.approx(run.deviation.rms, abs=1e-9)
-    assert np.all(built.world.cut_error == 0) and built.converged
+    assert np.all(built.world.cut_error == 0) and built.inflation_converged
 
 
 def test_the_built_strings_are_the_worlds(small, first):
