@@ -60,6 +60,22 @@ def test_correct_writes_a_design_folder_with_the_scan_s_lessons(corrected, desig
     assert "As built" in (out / "report.html").read_text(encoding="utf-8")
 
 
+def test_correct_json_matches_its_schema_and_the_schema_refuses_a_broken_one(corrected):
+    """correct.json against airmat/schemas/correct.schema.json (package data); a broken copy is refused."""
+    import importlib.resources
+
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads((importlib.resources.files("airmat") / "schemas" / "correct.schema.json").read_text())
+    v = jsonschema.Draft202012Validator(schema)
+    doc = json.loads((corrected[0] / "correct.json").read_text())
+    assert not [e.message for e in v.iter_errors(doc)]
+    for edit in (lambda d: d["registration"].pop("rms_mm"), lambda d: d.update(surface="side"),
+                 lambda d: d["update"].update(delta_95_mm=[1.0])):
+        broken = json.loads(json.dumps(doc))
+        edit(broken)
+        assert list(v.iter_errors(broken))
+
+
 def test_the_registration_recovers_the_scan_s_pose(corrected, built):
     """The scan's stated pose (truth.json) and the recovered one put its points within a few mm: the
     registration fits the scan to the prediction, which the built mattress misses by the deviation."""

@@ -19,7 +19,7 @@ from airmat.cli import main  # noqa: E402
 from airmat.json_doc import SCHEMA_VERSION  # noqa: E402
 
 SCHEMAS = Path(str(importlib.resources.files("airmat") / "schemas"))
-OUTPUTS = ("calibration", "design", "inflate", "validate", "gallery", "retie", "fit", "plan")
+OUTPUTS = ("calibration", "design", "inflate", "validate", "gallery", "retie", "fit", "plan", "correct")
 
 
 def _validator(name):
