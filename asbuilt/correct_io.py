@@ -44,14 +44,10 @@ def _deviation(dev) -> dict:
             "coverage": round(float(dev.coverage), 4), "rms_pct_diag": round(float(dev.rms_pct_diag), 3)}
 
 
-def _interval(mean, cov, i) -> list:
-    sd = float(np.sqrt(max(cov[i, i], 0.0)))
-    return [_mm(mean[i] - 1.96 * sd), _mm(mean[i] + 1.96 * sd)]
-
-
 def correct_document(res) -> dict:
     """correct.json's content (mm) of an :class:`airmat.asbuilt.pipeline.AsBuilt`."""
     reg, upd, corr = res.registration, res.update, res.correction
+    now, before = upd.interval95, upd.prior_interval95
     strings = [{"id": i, "error_mm": _mm(e), "error_se_mm": _mm(se), "flagged": i in upd.flagged,
                 "kept": bool(k), "length_mm": _mm(l), "change_mm": _mm(c)}
                for i, e, se, k, l, c in zip(upd.ids, upd.error, upd.error_se, corr.kept, corr.l_real, corr.change)]
@@ -67,10 +63,9 @@ def correct_document(res) -> dict:
         "deviation": {"to_target": _deviation(res.to_target), "to_prediction": _deviation(res.to_prediction)},
         "update": {"method": "Laplace (Gaussian) update through the face Jacobian (airmat.asbuilt.update)",
                    "delta_mm": _mm(upd.mean[0]), "d_mm": _mm(upd.mean[1]),
-                   "delta_95_mm": _interval(upd.mean, upd.covariance, 0),
-                   "d_95_mm": _interval(upd.mean, upd.covariance, 1),
-                   "prior_delta_95_mm": _interval(upd.prior_mean, upd.prior_covariance, 0),
-                   "prior_d_95_mm": _interval(upd.prior_mean, upd.prior_covariance, 1),
+                   "delta_95_mm": [_mm(x) for x in now[:, 0]], "d_95_mm": [_mm(x) for x in now[:, 1]],
+                   "prior_delta_95_mm": [_mm(x) for x in before[:, 0]],
+                   "prior_d_95_mm": [_mm(x) for x in before[:, 1]],
                    "residual_mm": _mm(upd.residual), "noise_sd_mm": _mm(upd.noise_sd),
                    "linearisations": int(upd.iterations), "inflations": int(upd.inflations),
                    "converged": bool(upd.converged), "message": upd.message,

@@ -215,7 +215,7 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     to_pred = deviation_map(pts, xyz, triangles, max_distance=MAX_DISTANCE, seed=seed)
     on = np.isfinite(to_pred.per_point)
     pts = pts[on]
-    to_pred = deviation_map(pts, xyz, triangles, max_distance=MAX_DISTANCE, seed=seed)
+    to_pred = dataclasses.replace(to_pred, per_point=to_pred.per_point[on])   # its vertex means used only these
     to_target = deviation_map(pts, target, design.approx.faces, max_distance=MAX_DISTANCE, seed=seed)
     # the update and the correction work on the scanned face, against its target
     seen = design if target is design.approx.xyz else \

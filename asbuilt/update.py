@@ -226,6 +226,12 @@ class Update(Summarized):
         half = 1.959963984540054 * np.sqrt(np.diag(self.covariance))
         return np.stack([self.mean - half, self.mean + half])
 
+    @property
+    def prior_interval95(self) -> np.ndarray:
+        """The same of the prior (the design's calibration as a Gaussian), shape (2, 2) (m)."""
+        half = 1.959963984540054 * np.sqrt(np.diag(self.prior_covariance))
+        return np.stack([self.prior_mean - half, self.prior_mean + half])
+
 
 def scan_data(points, face_xyz, faces) -> ScanData:
     """The registered scan points as normal displacements at the face's vertices (see the module docstring).

@@ -43,9 +43,9 @@ def asbuilt_map_figure(res) -> dict:
     return {"data": data, "layout": layout}
 
 
-def _interval(mean, cov, i) -> str:
-    sd = float(np.sqrt(max(cov[i, i], 0.0)))
-    return f"{mean[i] * M_TO_MM:.2f} [{(mean[i] - 1.96 * sd) * M_TO_MM:.2f}, {(mean[i] + 1.96 * sd) * M_TO_MM:.2f}]"
+def _interval(mean, interval, i) -> str:
+    """Median [95 % interval] of parameter ``i`` (mm)."""
+    return f"{mean[i] * M_TO_MM:.2f} [{interval[0, i] * M_TO_MM:.2f}, {interval[1, i] * M_TO_MM:.2f}]"
 
 
 def asbuilt_part(res) -> Part:
@@ -59,8 +59,8 @@ def asbuilt_part(res) -> Part:
     dev_rows = [[f"against {name}", round(d.rms * M_TO_MM, 1), round(d.max * M_TO_MM, 1), round(d.p95 * M_TO_MM, 1),
                  round(d.rms_pct_diag, 2), f"{100 * d.coverage:.0f} %"]
                 for name, d in (("Ŝ", res.to_target), ("the prediction", res.to_prediction))]
-    cal_rows = [["Δ (mm)", _interval(upd.prior_mean, upd.prior_covariance, 0), _interval(upd.mean, upd.covariance, 0)],
-                ["d (mm)", _interval(upd.prior_mean, upd.prior_covariance, 1), _interval(upd.mean, upd.covariance, 1)]]
+    cal_rows = [[name, _interval(upd.prior_mean, upd.prior_interval95, i), _interval(upd.mean, upd.interval95, i)]
+                for i, name in enumerate(("Δ (mm)", "d (mm)"))]
     flagged = [[i, round(e * M_TO_MM, 1), round(se * M_TO_MM, 1)]
                for i, e, se in zip(upd.ids, upd.error, upd.error_se) if i in upd.flagged]
     counts = corr.plan.counts

@@ -46,7 +46,7 @@ def _iv(p, unit: str, scale: float = 1.0, digits: int = 1) -> str:
 def _asbuilt_line(res, world) -> str:
     u, c = res.update, res.correction
     after = c.rms_linear if c.rms_verified is None else c.rms_verified
-    sd = [float(v) ** 0.5 * 1e3 * 1.96 for v in u.covariance.diagonal()]
+    sd = 0.5 * (u.interval95[1] - u.interval95[0]) * 1e3          # the 95 % half-widths (mm)
     return (f"  as built     a world with Delta = {world.delta * 1e3:.1f} mm, d = {world.d * 1e3:.1f} mm, ties within "
             f"+-{world.cut_tolerance * 1e3:g} mm: the scan lies {res.to_target.rms * 1e3:.1f} mm RMS from Ŝ; "
             f"learned Delta = {u.mean[0] * 1e3:.1f} +- {sd[0]:.1f} mm, d = {u.mean[1] * 1e3:.1f} +- {sd[1]:.1f} mm; "
