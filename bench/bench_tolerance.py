@@ -10,17 +10,19 @@ Per preset (designed with the paper's calibration values, seed 0, and a stated n
 ``--sigma-per-m``, as ``bench_monte_carlo.py``): one check with K Monte-Carlo samples
 (:func:`airmat.check.inflation_check.check`, seed 0; its median run is the linear model's
 equilibrium too), then :func:`airmat.check.tolerance.tolerance` on that check (``--validate`` full
-samples, seed 1). Columns:
+samples in antithetic pairs, seed 1, which also give the model's mean shift). Columns:
 
-- times: the K runs (summed inside the runs), the linear model (Jacobian, covariance, model
-  draws) and its validation runs (wall);
-- the validation's relative error of the linear prediction (``LinearTolerance.validation``);
+- times: the K runs (summed inside the runs), the median run (one inflation), the linear model
+  (Jacobian, covariance, model draws) and its validation runs (wall), and linear + validation over
+  one inflation;
+- the validation's spread error (the verdict's measure) and its per-sample displacement error
+  (``LinearTolerance.validation``);
 - the median over Ŝ's vertices of |q95_linear / q95_MC − 1|, the per-vertex 95 % quantile of the
   distance from Ŝ; for scale, the same statistic's sampling error at K (one quantile's relative
   standard error sqrt(0.95 · 0.05 / K) / (2 φ(1.96) · 1.96) for a one-mode Gaussian deviation);
 - the RMS median and 95th percentile, linear / MC (mm), and P(RMS <= T) both ways with T the
-  MC's median RMS rounded to 0.1 mm (where a probability is most sensitive), the MC's with its
-  binomial standard error.
+  MC's median RMS rounded to 0.1 mm (where a probability is most sensitive), the linear one with the
+  standard error of its sampled mean shift, the MC's with its binomial standard error.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ sys.path.insert(0, str(HERE))
 
 import numpy as np  # noqa: E402
 
+from airmat.check.tolerance import VALIDATION_SAMPLES  # noqa: E402
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 
@@ -62,11 +65,17 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
     rel = float(np.median(np.abs(lin.per_vertex_q[1] / np.maximum(mc.per_vertex_q[1], 1e-12) - 1)))
     rel_se = np.sqrt(0.95 * 0.05 / k) / (2 * norm.pdf(1.96) * 1.96)
     v = lin.validation
-    err = "n/a" if v is None else f"{100 * v.relative_error:.1f} % ({v.samples}, {v.seconds:.1f} s)"
-    return (f"| {preset} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc.seconds:.1f} ({t_check:.1f} wall, "
-            f"median run {t_med:.1f}) | {lin.seconds:.2f} | {err} | {100 * rel:.1f} % (sampling {100 * rel_se:.0f} %) "
+    if v is None:
+        val, p_se, total = "n/a", "", lin.seconds
+    else:
+        val = (f"{100 * v.spread_error:+.1f} % / {100 * v.relative_error:.0f} % ({v.samples}, {v.seconds:.1f} s)")
+        p_se = "" if v.p_within_se is None else f" ± {v.p_within_se:.2f}"
+        total = lin.seconds + v.seconds
+    return (f"| {preset} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc.seconds:.1f} ({t_check:.1f} wall) "
+            f"| {t_med:.1f} | {lin.seconds:.2f} | {val} | {total / t_med:.1f}x "
+            f"| {100 * rel:.1f} % (sampling {100 * rel_se:.0f} %) "
             f"| {lst['rms_median'] / MM:.2f} / {mst['rms_median'] / MM:.2f} | {lst['rms_p95'] / MM:.2f} / "
-            f"{mst['rms_p95'] / MM:.2f} | {T / MM:.1f}: {lst['p_within']:.2f} / {mst['p_within']:.2f} "
+            f"{mst['rms_p95'] / MM:.2f} | {T / MM:.1f}: {lst['p_within']:.2f}{p_se} / {mst['p_within']:.2f} "
             f"± {mst['p_within_se']:.2f} | {lin.reliable} |")
 
 
@@ -75,7 +84,8 @@ def main(argv=None) -> int:
     ap.add_argument("--presets", nargs="+", default=["vault1", "saddle"])
     ap.add_argument("--resolution-mm", type=float, default=20.0)
     ap.add_argument("--samples", type=int, default=256, help="Monte-Carlo samples K")
-    ap.add_argument("--validate", type=int, default=8, help="full samples that check the linear model")
+    ap.add_argument("--validate", type=int, default=VALIDATION_SAMPLES,
+                    help="full samples (antithetic pairs: even) that check the model and give its mean shift")
     ap.add_argument("--sigma-per-m", type=float, default=0.3, help="nominal scatter sigma (1/m), stated")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes of the inflations")
     ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 60 mm, K = 4, 2 validation samples")
@@ -85,10 +95,11 @@ def main(argv=None) -> int:
     logging.getLogger().setLevel(logging.WARNING)
     print(f"linear tolerance against {args.samples} Monte-Carlo samples at {args.resolution_mm:g} mm, "
           f"sigma {args.sigma_per_m:g} 1/m (nominal), {args.validate} validation samples")
-    print("| preset | mesh (mm) | strings | K | MC runs (s) | linear (s) | validation error (samples, s) "
+    print("| preset | mesh (mm) | strings | K | MC runs (s) | one inflation (s) | linear (s) "
+          "| validation: spread / per-sample error (samples, s) | linear + validation / one inflation "
           "| 95 % band: median rel. diff | RMS median lin / MC (mm) | RMS p95 lin / MC (mm) "
           "| T (mm): P(RMS <= T) lin / MC | reliable |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.presets:
         print(row(name, args.resolution_mm * MM, args.samples, args.validate, args.sigma_per_m, args.jobs),
               flush=True)

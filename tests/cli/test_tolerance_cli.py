@@ -10,6 +10,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "check"))
 from refine_case import OFF, TRUE_SIM, small_design  # noqa: E402
 
+from airmat.check.tolerance import VALIDATION_SAMPLES  # noqa: E402
 from airmat.cli import main  # noqa: E402
 from airmat.design.design_io import write_design  # noqa: E402
 
@@ -32,7 +33,7 @@ def test_the_default_check_gives_the_linear_tolerance(folder, tmp_path, capsys):
                  "--tolerance-mm", "3", "--cut-tolerance-mm", "0.5", "--seed", "2"]) == 0
     doc = json.loads((out / "inflate.json").read_text())
     tol = doc["tolerance"]
-    assert tol["method"] == "linear" and tol["reliable"] is True and tol["validation"]["samples"] == 8
+    assert tol["method"] == "linear" and tol["reliable"] is True and tol["validation"]["samples"] == VALIDATION_SAMPLES
     assert tol["cut_tolerance_mm"] == 0.5 and tol["tolerance_mm"] == 3.0 and "monte_carlo" not in doc
     assert len(tol["sensitive_strings"]) == 3 and tol["band_normal_mm"]["p95"]["max"] > 0
     jsonschema = pytest.importorskip("jsonschema")
