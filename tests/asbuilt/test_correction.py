@@ -130,7 +130,7 @@ def test_vault1_learned_and_corrected(tmp_path):
     Δ and d cover this world for 95.5 % of 200 seeds (``bench/bench_correct.py`` measures it).
     Seed 41 is one of the others: even with the face known exactly its intervals miss (Δ by 2.9, d by 2.3
     posterior sd). The seed here, 7 (the guide's ``synth-built`` example), was fixed before it was ever run,
-    and is not to be replaced by one that passes: a failure is a draw in that 8 % or a fault of the update,
+    and is not to be replaced by one that passes: a failure is a draw in those 4.5 % or a fault of the update,
     which the bench's coverage tells apart."""
     import airmat
 
