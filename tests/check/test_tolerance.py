@@ -15,7 +15,7 @@ from airmat.check.compare import deviation  # noqa: E402
 from airmat.check.inflation_check import check, design_strings  # noqa: E402
 from airmat.check.length_covariance import length_covariance  # noqa: E402
 from airmat.check.monte_carlo import draw  # noqa: E402
-from airmat.check.tolerance import (RELIABLE_ERROR, align_faces, antithetic, density_at, pair_statistics,  # noqa: E402
+from airmat.check.tolerance import (RELIABLE_ERROR, Validation, align_faces, antithetic, density_at, pair_statistics,  # noqa: E402
                                     rms_shift_se, tolerance)
 from airmat.errors import InputError  # noqa: E402
 from airmat.inflation.simulate import inflate_from  # noqa: E402
@@ -164,6 +164,21 @@ def test_the_mean_shift_is_the_samples_mean_and_moves_the_model(case):
     assert not np.allclose(moved.rms, with_shift.rms)
     block = with_shift.block()["validation"]
     assert block["spread_error"] == round(v.spread_error, 4) and block["mean_shift_mm"]["rms"] > 0
+
+
+def test_p_is_vouched_for_by_the_upper_bound_of_its_standard_error():
+    """The P check uses the χ² upper 95 % bound of the pairs' standard error: 2 pairs (1 degree of
+    freedom) multiply it by 1/sqrt(χ²₀.₀₅(1)) = 15.95, 4 pairs by sqrt(3/0.3518) = 2.92 (exact values)."""
+    def val(samples, se):
+        z = np.zeros(samples)
+        return Validation(samples=samples, seed=0, relative_error=0.3, spread_error=0.01, shift=np.zeros((3, 3)),
+                          rms_shift_se=0.001, rms_actual=z, rms_linear=z, converged=np.ones(samples, bool),
+                          p_within_se=se)
+    assert np.isclose(val(4, 0.01).p_within_bound, 0.01 / np.sqrt(0.003932140000019526), rtol=1e-6)
+    assert np.isclose(val(8, 0.01).p_within_bound, 0.01 * np.sqrt(3 / 0.35184631774927144), rtol=1e-6)
+    assert not val(4, 0.01).reliable and "up to 0.16" in val(4, 0.01).why
+    assert val(8, 0.01).reliable and val(8, 0.01).why == ""
+    assert val(4, None).reliable and np.isnan(val(4, None).p_within_bound)      # no T: nothing to vouch for
 
 
 def test_align_faces_is_the_deviations_kabsch():
