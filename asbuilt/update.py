@@ -83,6 +83,13 @@ NOISE_ROUNDS = 3
 #: inner Gauss–Newton steps over the exact chain at most, and their tolerance (posterior sd)
 INNER_ITER = 30
 INNER_TOL = 1e-3
+#: degrees of freedom of the Student-t prior on (Δ, d) (scale: the calibration's covariance). The cylinders'
+#: calibration need not hold for the built mattress (another batch, pressure, temperature): where the scan
+#: contradicts it, a Gaussian prior would still pull the estimate by its full weight (in the demo's world,
+#: 15 calibration sd away along Δ and d's correlation, 3.6 posterior sd off with the face known), a t
+#: prior gives way (its weight falls as 1 / r²); where they agree it acts as the calibration
+#: (weight (ν + 2) / ν at its mean)
+PRIOR_DOF = 4.0
 #: halvings of an inner step that does not lower the objective
 INNER_HALVINGS = 12
 #: the model error's standard deviation is at least this (m): a micrometre, far below any scan's noise
@@ -397,14 +404,27 @@ def _linearisation(point, faces, points) -> tuple:
                          rigid=_rigid_columns(point.deviation.aligned, normal)[c], rest=point.rest)
 
 
+def _prior_weight(x, prior_mean, prior_prec) -> float:
+    """w = (ν + 2) / (ν + r²): the Student-t prior's weight on (Δ, d)'s Gaussian precision at x (IRLS), r² their
+    Mahalanobis distance from the calibration's mean, ν = :data:`PRIOR_DOF`."""
+    d = x[:2] - prior_mean[:2]
+    return (PRIOR_DOF + 2.0) / (PRIOR_DOF + float(d @ prior_prec[:2, :2] @ d))
+
+
+def _prior_term(x, prior_mean, prior_prec) -> float:
+    """The prior's negative log density (up to a constant): Student-t on (Δ, d), Gaussian on the errors."""
+    d = x - prior_mean
+    r2 = float(d[:2] @ prior_prec[:2, :2] @ d[:2])
+    return 0.5 * (PRIOR_DOF + 2.0) * np.log1p(r2 / PRIOR_DOF) + 0.5 * float(d[2:] @ prior_prec[2:, 2:] @ d[2:])
+
+
 def _objective(lin: _Linear, x, prior_mean, prior_prec, tau2) -> float:
     """The MAP objective at the linearisation's own point x (k + 2,): half the weighted squared misfit of the
     scan from that inflation after the best rigid motion, plus half the prior's Mahalanobis distance."""
     root = 1.0 / np.sqrt(tau2 + lin.var_scan)
     g, y = lin.rigid * root[:, None], lin.y * root
     r = y - g @ np.linalg.lstsq(g, y, rcond=None)[0]
-    dx = x - prior_mean
-    return 0.5 * float(r @ r) + 0.5 * float(dx @ prior_prec @ dx)
+    return 0.5 * float(r @ r) + _prior_term(x, prior_mean, prior_prec)
 
 
 def _inner_objective(design, lin: _Linear, x, prior_mean, prior_prec, tau2) -> float:
@@ -416,8 +436,7 @@ def _inner_objective(design, lin: _Linear, x, prior_mean, prior_prec, tau2) -> f
     if lin.rigid.shape[1]:
         g = lin.rigid * root[:, None]
         r = r - g @ np.linalg.lstsq(g, r, rcond=None)[0]
-    dx = x - prior_mean
-    return 0.5 * float(r @ r) + 0.5 * float(dx @ prior_prec @ dx)
+    return 0.5 * float(r @ r) + _prior_term(x, prior_mean, prior_prec)
 
 
 def _map(design, lin: _Linear, x0, prior_mean, prior_prec, tau2, k):
@@ -436,9 +455,11 @@ def _map(design, lin: _Linear, x0, prior_mean, prior_prec, tau2, k):
         r_theta, d_e, _ = world_slopes(design, x[:2], x[2:])
         jac = np.column_stack([lin.a_n @ r_theta, lin.a_n * d_e[None, :]])
         y = lin.y - lin.a_n @ (rest - lin.rest)
+        weighted = prior_prec.copy()
+        weighted[:2, :2] *= _prior_weight(x, prior_mean, prior_prec)
         for _ in range(NOISE_ROUNDS):
-            dx, cov, resid, dof = _solve(y, lin.var_scan, tau2, jac, lin.rigid, prior_prec,
-                                         prior_prec @ (prior_mean - x))
+            dx, cov, resid, dof = _solve(y, lin.var_scan, tau2, jac, lin.rigid, weighted,
+                                         weighted @ (prior_mean - x))
             tau2 = max(float(np.sum(resid ** 2 - lin.var_scan)) / dof, TAU_FLOOR ** 2)
         step, t = dx[:k + 2], 1.0
         f0 = _inner_objective(design, lin, x, prior_mean, prior_prec, tau2)

@@ -127,10 +127,10 @@ def test_vault1_learned_and_corrected(tmp_path):
     95 % interval covers a world in the tail of its prior less often than 95 % of the draws (the prior pulls
     the estimate toward itself). With the face known exactly (:func:`airmat.asbuilt.update.known_face_update`,
     the limit the converged update reaches: within 0.4 posterior sd of it on seed 41) the intervals of both
-    Δ and d cover this world for 95.5 % of 200 seeds (``bench/bench_correct.py`` measures it).
-    Seed 41 is one of the others: even with the face known exactly its intervals miss (Δ by 2.9, d by 2.3
+    Δ and d cover this world for 96 % of 200 seeds (``bench/bench_correct.py`` measures it).
+    Seed 41 is one of the others: even with the face known exactly its intervals miss (Δ by 2.6, d by 2.0
     posterior sd). The seed here, 7 (the guide's ``synth-built`` example), was fixed before it was ever run,
-    and is not to be replaced by one that passes: a failure is a draw in those 4.5 % or a fault of the update,
+    and is not to be replaced by one that passes: a failure is a draw in those 4 % or a fault of the update,
     which the bench's coverage tells apart."""
     import airmat
 
