@@ -35,9 +35,13 @@ def add_parser(sub, parents):
                         "tolerance)")
     p.add_argument("--tolerance", choices=("linear", "samples", "none"), default=None,
                    help="the tolerance of the shape: 'linear' (the adjoint Jacobian at the median run times the "
-                        "covariance of the string lengths, checked against 8 full samples; the default without "
+                        "covariance of the string lengths, checked against --validation-samples full samples; the "
+                        "default without "
                         "--samples, where the lengths have a spread), 'samples' (the K runs of --samples; the "
                         "default with it) or 'none'")
+    p.add_argument("--validation-samples", type=int, default=4, metavar="N",
+                   help="with the linear tolerance: full samples (an even count, in antithetic pairs) that check it "
+                        "and give its mean shift; with --tolerance-mm, 8 or more pin P(RMS <= T) down (default 4)")
     p.add_argument("--cut-tolerance-mm", type=float, default=0.0, metavar="t",
                    help="with the linear tolerance: every string cut and tied within +-t mm (uniform), on top of "
                         "the calibration's spread (mm, default 0)")
@@ -98,6 +102,11 @@ def _tolerance_mode(args) -> str:
             raise InputError(f"--tolerance-mm must be > 0, got {args.tolerance_mm!r}")
     if not (args.cut_tolerance_mm >= 0):
         raise InputError(f"--cut-tolerance-mm must be >= 0, got {args.cut_tolerance_mm!r}")
+    n = args.validation_samples
+    if n < 0 or n % 2:
+        raise InputError(f"--validation-samples must be an even count >= 0 (antithetic pairs), got {n}")
+    if n != 4 and mode != "linear":
+        raise InputError("--validation-samples needs the linear tolerance (--tolerance linear)")
     if args.cut_tolerance_mm > 0 and mode != "linear":
         raise InputError("--cut-tolerance-mm needs the linear tolerance (--tolerance linear)")
     return mode
@@ -116,7 +125,7 @@ def _with_linear_tolerance(design, result, args, workers):
         logging.getLogger(__name__).log(logging.WARNING if args.tolerance == "linear" else logging.INFO,
                                         "no linear tolerance: %s", why_not)
         return result
-    lin = tolerance(design, run=result, cut_tolerance=args.cut_tolerance_mm * MM,
+    lin = tolerance(design, run=result, cut_tolerance=args.cut_tolerance_mm * MM, validate=args.validation_samples,
                     tolerance=args.tolerance_mm * MM if args.tolerance_mm is not None else None,
                     seed=args.seed if args.seed is not None else 0, workers=workers, scheduler=scheduler(args))
     return replace(result, tolerance=lin)

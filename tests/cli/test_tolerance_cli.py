@@ -58,8 +58,27 @@ def test_none_and_samples_leave_the_linear_tolerance_out(folder, tmp_path):
     (["--samples", "2", "--cut-tolerance-mm", "1"], "--cut-tolerance-mm needs the linear tolerance"),
     (["--cut-tolerance-mm", "-1"], "--cut-tolerance-mm must be >= 0"),
     (["--tolerance", "none", "--tolerance-mm", "2"], "--tolerance-mm needs --samples K > 0 or --tolerance linear"),
+    (["--validation-samples", "3"], "--validation-samples must be an even count"),
+    (["--samples", "2", "--validation-samples", "8"], "--validation-samples needs the linear tolerance"),
 ])
 def test_bad_tolerance_options_exit_2_and_write_nothing(folder, tmp_path, capsys, argv, message):
     out = tmp_path / "out"
     assert main(["check", str(folder), "--out", str(out)] + argv) == 2
     assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_validation_samples_sets_the_full_samples(folder, tmp_path):
+    """--validation-samples 0: the linear tolerance without its check (reliable unknown); its default is
+    the library's (the parser keeps a literal, so that `airmat --help` imports no numpy)."""
+    import argparse
+
+    from airmat.cli.inflate import add_parser
+
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers(), [])
+    assert parser.parse_args(["check", "x"]).validation_samples == VALIDATION_SAMPLES
+    out = tmp_path / "out"
+    assert main(["check", str(folder), "--out", str(out), "--resolution-mm", "40", "--no-envelope",
+                 "--validation-samples", "0", "-q"]) == 0
+    tol = json.loads((out / "inflate.json").read_text())["tolerance"]
+    assert tol["method"] == "linear" and tol["validation"] is None and tol["reliable"] is None
