@@ -336,6 +336,8 @@ class LinearTolerance(Summarized):
             "rms_shift_se_mm": None if not np.isfinite(v.rms_shift_se) else round(v.rms_shift_se * 1e3, 3),
             "p_rms_within_tolerance_se": None if v.p_within_se is None or not np.isfinite(v.p_within_se)
             else round(v.p_within_se, 4),
+            "p_rms_within_tolerance_se_bound": None if not np.isfinite(v.p_within_bound)
+            else round(v.p_within_bound, 4),
             "rms_mm": {"inflated": [round(float(r) * 1e3, 3) for r in v.rms_actual],
                        "linear": [round(float(r) * 1e3, 3) for r in v.rms_linear]}}
         return out
