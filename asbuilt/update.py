@@ -58,6 +58,7 @@ from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
 __all__ = ["ScanData", "Prediction", "Update", "scan_data", "update", "known_face_update", "world_slopes",
+           "error_slope",
            "MAX_RELINEARISATIONS", "FLAG_SE"]
 
 log = logging.getLogger(__name__)
@@ -315,9 +316,21 @@ def world_slopes(design, theta, error, *, strings=None) -> tuple:
 
     r_theta = np.column_stack([(rest(theta[0] + h, theta[1]) - rest(theta[0] - h, theta[1])) / (2 * h),
                                (rest(theta[0], theta[1] + h) - rest(theta[0], theta[1] - h)) / (2 * h)])
-    d_e = (rest(*theta, e=error + h) - rest(*theta, e=error - h)) / (2 * h)
+    d_e = error_slope(design, theta, error, strings=strings)
     d_z = (rest(*theta, z=hk) - rest(*theta, z=-hk)) / (2 * hk)
     return r_theta, d_e, d_z
+
+
+def error_slope(design, theta, error, *, strings=None) -> np.ndarray:
+    """∂rest_i/∂e_i (k,) at one world: :func:`world_slopes`'s second part alone (two chain evaluations).
+
+    Parameters are those of :func:`world_slopes`.
+    """
+    theta, error = np.asarray(theta, float), np.asarray(error, float)
+    h = 1e-5 * max(float(np.max(np.abs(theta))), 1e-3)
+    up, down = (world_strings(design, theta[0], theta[1], cut_error=error + sg * h, strings=strings).rest
+                for sg in (1.0, -1.0))
+    return (up - down) / (2 * h)
 
 
 def _prior(design, cut_tolerance: float, cut_distribution: str):
@@ -402,23 +415,28 @@ def _linearisation(point, faces, points) -> tuple:
                          rigid=_rigid_columns(point.deviation.aligned, normal)[c], rest=point.rest)
 
 
-def _prior_weight(x, prior_mean, prior_prec) -> float:
-    """w = (ν + 2) / (ν + r²): the Student-t prior's weight on (Δ, d)'s Gaussian precision at x (IRLS), r² their
-    Mahalanobis distance from the calibration's mean, ν = :data:`PRIOR_DOF`."""
+def _theta_r2(x, prior_mean, prior_prec) -> float:
+    """r²: (Δ, d)'s squared Mahalanobis distance from the calibration's mean under its precision."""
     d = x[:2] - prior_mean[:2]
-    return (PRIOR_DOF + 2.0) / (PRIOR_DOF + float(d @ prior_prec[:2, :2] @ d))
+    return float(d @ prior_prec[:2, :2] @ d)
+
+
+def _prior_weight(x, prior_mean, prior_prec) -> float:
+    """w = (ν + 2) / (ν + r²): the Student-t prior's weight on (Δ, d)'s Gaussian precision at x (IRLS),
+    ν = :data:`PRIOR_DOF`."""
+    return (PRIOR_DOF + 2.0) / (PRIOR_DOF + _theta_r2(x, prior_mean, prior_prec))
 
 
 def _prior_term(x, prior_mean, prior_prec) -> float:
     """The prior's negative log density (up to a constant): Student-t on (Δ, d), Gaussian on the errors."""
-    d = x - prior_mean
-    r2 = float(d[:2] @ prior_prec[:2, :2] @ d[:2])
-    return 0.5 * (PRIOR_DOF + 2.0) * np.log1p(r2 / PRIOR_DOF) + 0.5 * float(d[2:] @ prior_prec[2:, 2:] @ d[2:])
+    e = x[2:] - prior_mean[2:]
+    return (0.5 * (PRIOR_DOF + 2.0) * np.log1p(_theta_r2(x, prior_mean, prior_prec) / PRIOR_DOF)
+            + 0.5 * float(e @ prior_prec[2:, 2:] @ e))
 
 
 def _objective(lin: _Linear, x, prior_mean, prior_prec, tau2) -> float:
     """The MAP objective at the linearisation's own point x (k + 2,): half the weighted squared misfit of the
-    scan from that inflation after the best rigid motion, plus half the prior's Mahalanobis distance."""
+    scan from that inflation after the best rigid motion, plus the prior's negative log density (:func:`_prior_term`)."""
     root = 1.0 / np.sqrt(tau2 + lin.var_scan)
     g, y = lin.rigid * root[:, None], lin.y * root
     r = y - g @ np.linalg.lstsq(g, y, rcond=None)[0]
@@ -463,8 +481,7 @@ def _map(design, lin: _Linear, x0, prior_mean, prior_prec, tau2, k):
 def _half_logdet_errors(design, lin: _Linear, theta, error, tau2, prior_prec_e, frozen, d_e_frozen) -> float:
     """½ log det H_ee: the Gauss–Newton precision of the string errors e with θ held, the rigid motion
     marginalized, at (θ, e); the strings ``frozen`` (k,) keep their slopes ``d_e_frozen``."""
-    _, d_e, _ = world_slopes(design, theta, error)
-    d_e = np.where(frozen, d_e_frozen, d_e)
+    d_e = np.where(frozen, d_e_frozen, error_slope(design, theta, error))
     w = 1.0 / (tau2 + lin.var_scan)
     m = lin.a_n * d_e[None, :]
     h = (m * w[:, None]).T @ m + prior_prec_e
@@ -492,10 +509,10 @@ def _marginal_mode(design, lin: _Linear, x, joint, tau2, prior_prec_e) -> np.nda
     c_tt = joint[:2, :2]
     slope = joint[2:, :2] @ np.linalg.inv(c_tt)           # E[e | θ] per unit of θ
     reach = 3.0 / np.sqrt(np.diag(prior_prec_e))
-    d_e_hat = world_slopes(design, x[:2], x[2:])[1]
+    d_e_hat = error_slope(design, x[:2], x[2:])
     frozen = np.abs(d_e_hat) < CLIPPED_SLOPE
     for sign in (-1.0, 1.0):
-        frozen |= np.abs(world_slopes(design, x[:2], x[2:] + sign * reach)[1]) < CLIPPED_SLOPE
+        frozen |= np.abs(error_slope(design, x[:2], x[2:] + sign * reach)) < CLIPPED_SLOPE
     grad = np.zeros(2)
     for j in range(2):
         h = np.zeros(2)

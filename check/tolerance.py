@@ -466,24 +466,8 @@ def linearize(design, run, strings, surface: str, params: Parameters = Parameter
 
 
 def face_jacobian(design, run, strings, surface: str, params: Parameters = Parameters()) -> np.ndarray:
-    """A: the aligned named face's change per simulated rest length, rigid motions removed (Ŝ's frame).
-
-    Parameters
-    ----------
-    design : airmat.design.pipeline.DesignResult
-    run : airmat.check.inflation_check.CheckRun
-        The median run: its equilibrium and its alignment to Ŝ.
-    strings : airmat.inflation.strings.StringSet
-        The strings it was inflated with (rest lengths l*, m).
-    surface : str
-        The named face.
-    params : Parameters
-
-    Returns
-    -------
-    ndarray of shape (N, 3, k)
-        At Ŝ's N vertices (m/m).
-    """
+    """A: the aligned named face's change per simulated rest length, rigid motions removed (Ŝ's frame),
+    shape (N, 3, k) at Ŝ's N vertices (m/m): the ``face`` of :func:`linearize` (same parameters)."""
     return linearize(design, run, strings, surface, params).face
 
 
@@ -674,8 +658,9 @@ def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarr
 
 
 def _validate(design, check_run, strings, lin: Linearization, n: int, seed: int, cov: LengthCovariance,
-              params) -> Validation:
-    """``n`` full samples in antithetic pairs, carried on from the median equilibrium, against the model."""
+              params, variance: float) -> Validation:
+    """``n`` full samples in antithetic pairs, carried on from the median equilibrium, against the model
+    (``variance``: the model's total, Σ_v tr(A_v Σ A_vᵀ), m²)."""
     lengths, med = check_run.lengths, check_run.runs["median"]
     pairs = n // 2
     dr = draw(design, pairs, seed, lengths=lengths)
@@ -701,7 +686,7 @@ def _validate(design, check_run, strings, lin: Linearization, n: int, seed: int,
     shift, spread_err, per_pair = pair_statistics(actual, predicted)
     norm = float(np.linalg.norm(actual))
     err = float(np.linalg.norm(actual - predicted)) / norm if norm > 0 else float("nan")
-    v = float(np.einsum("nck,kl,ncl->", lin.face, cov.total, lin.face)) / len(e0)
+    v = variance / len(e0)
 
     def rms(e):
         return np.sqrt(np.mean(np.sum((e0 + e) ** 2, axis=2), axis=1))
@@ -777,7 +762,8 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     share = contrib / contrib.sum() if contrib.sum() > 0 else np.zeros_like(contrib)
     seconds = time.perf_counter() - started
     spread = bool(np.any(total))
-    val = _validate(design, run, strings, lin, int(validate), seed, cov, params) if validate and spread else None
+    val = (_validate(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()))
+           if validate and spread else None)
     started = time.perf_counter()
     shift = val.shift if val is not None else np.zeros_like(base)
     q, rms = _model_draws(base + shift, a, total, int(draws), seed)
