@@ -21,7 +21,7 @@ from airmat.errors import InputError
 from airmat.geometry.topology import flat_vertex_areas, mesh_edges
 from airmat.design.relax import OFF_TARGET
 
-__all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX"]
+__all__ = ["ConstructibilityReport", "constructibility", "edge_sigma", "PAPER_KAPPA_MAX", "FOLD_SHARE_MAX"]
 
 
 def _paper_kappa_max() -> float:
@@ -33,6 +33,9 @@ def _paper_kappa_max() -> float:
 
 #: largest curvature (1/m) a string reaches with the paper's calibration (L 300, Δ 18, d 70 mm)
 PAPER_KAPPA_MAX = _paper_kappa_max()
+
+#: largest share of Ω's area a folded Ŝ's folds may take: beyond it the curvature is a shape, not folds
+FOLD_SHARE_MAX = 0.10
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,11 @@ class ConstructibilityReport:
         The lengths σ is measured against: ``face`` (``"top"`` / ``"bottom"``: the named
         face's metric, airmat.design.face_metric; ``"flat"``: Ω's) and ``min_ratio``, the
         shortest rest length of that metric over Ω's (1 for Ω's own).
+    folds : dict or None
+        A folded Ŝ (:mod:`airmat.design.fold_route`): ``vertices`` (how many) and ``share`` (of
+        Ω's area) of the folds, the vertices whose |κ| exceeds the reachable curvature, and Ŝ's
+        largest |κ| ``kappa_max`` (1/m): the mattress gathers there by itself, so they are no
+        reason while their share is at most FOLD_SHARE_MAX. None: Ŝ is not folded.
     """
 
     sigma: dict
@@ -74,6 +82,7 @@ class ConstructibilityReport:
     off_target: dict = field(default_factory=lambda: {"share": 0.0, "max": 0.0})
     warnings: list = field(default_factory=list)
     metric: dict = field(default_factory=lambda: {"face": "flat", "min_ratio": 1.0})
+    folds: dict | None = None
 
     def table_row(self) -> str:
         """``σ min/avg/max | |κ1| avg // max | |κ2| avg // max`` as one Markdown table row body."""
@@ -99,7 +108,8 @@ def _where(points_mm):
 
 
 def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
-                     kappa_max: float | None = None, off_target=None, metric=None) -> ConstructibilityReport:
+                     kappa_max: float | None = None, off_target=None, metric=None,
+                     folds: bool = False) -> ConstructibilityReport:
     """Table-1 figures of Ŝ and whether the mattress can make it.
 
     Parameters
@@ -124,6 +134,10 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
     metric : airmat.design.face_metric.FaceMetric, optional
         Measure σ against the named face's rest lengths instead of Ω's: where that face
         carries strings they shorten it, which is not a contraction the membrane must make.
+    folds : bool, default False
+        Ŝ is folded (:mod:`airmat.design.fold_route`): the vertices whose |κ| exceeds
+        ``kappa_max`` are its folds, where the mattress buckles by itself, and are reported as
+        such instead of as a reason while they take at most FOLD_SHARE_MAX of Ω's area.
 
     Returns
     -------
@@ -145,18 +159,26 @@ def constructibility(xyz, uv, faces, kappa, *, sigma_band=(0.9, 1.1),
                            f"({int(bad.sum())} of {len(sig)} edges {word}: the mattress cannot "
                            f"{'contract' if word.startswith('below') else 'stretch'} that much)")
     over = absk.max(axis=1) > kappa_max
-    if over.any():
-        i = int(np.argmax(absk.max(axis=1)))
-        reasons.append(f"|κ| = {absk[i].max():.1f} 1/m at {_where(1e3 * uv[i])} exceeds the reachable "
-                       f"{kappa_max:.2f} 1/m ({int(over.sum())} of {len(uv)} vertices)")
+    share = float(area @ over / area.sum())
+    i = int(np.argmax(absk.max(axis=1)))
+    fold = {"vertices": int(over.sum()), "share": share, "kappa_max": float(absk[i].max())} if folds else None
     off, warnings = _off_target(off_target, uv, edges, area)
+    if over.any():
+        where = (f"|κ| = {absk[i].max():.1f} 1/m at {_where(1e3 * uv[i])} exceeds the reachable "
+                 f"{kappa_max:.2f} 1/m ({int(over.sum())} of {len(uv)} vertices")
+        if folds and share <= FOLD_SHARE_MAX:
+            warnings.append(f"drape-like folds on {100 * share:.1f} % of Ω: {where}); no string makes that, the "
+                            f"mattress gathers there by buckling")
+        else:
+            reasons.append(where + (f", {100 * share:.0f} % of Ω: too much for folds, at most "
+                                    f"{100 * FOLD_SHARE_MAX:.0f} %)" if folds else ")"))
     return ConstructibilityReport(
         sigma={"min": float(sig.min()), "avg": float(sig.mean()), "max": float(sig.max())},
         kappa1={"avg": float(area @ absk[:, 0] / area.sum()), "max": float(absk[:, 0].max())},
         kappa2={"avg": float(area @ absk[:, 1] / area.sum()), "max": float(absk[:, 1].max())},
         constructible=not reasons, reasons=reasons, sigma_band=(float(lo), float(hi)),
         kappa_max=kappa_max, off_target=off, warnings=warnings,
-        metric={"face": "flat", "min_ratio": 1.0} if flat else metric.summary())
+        metric={"face": "flat", "min_ratio": 1.0} if flat else metric.summary(), folds=fold)
 
 
 def _off_target(dist, uv, edges, area):

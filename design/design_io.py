@@ -37,6 +37,7 @@ from airmat.design.constructibility import ConstructibilityReport
 from airmat.design.export.design_json import dash_entry, design_document, read_design_json, write_design_json
 from airmat.design.mattress import Mattress
 from airmat.design.pattern import Dash, Pattern, TensionString
+from airmat.design.fold_route import FoldRoute
 from airmat.design.pipeline import DesignParams, DesignResult
 from airmat.design.surface import ApproxSurface
 from airmat.design.surface_io import (read_approx_surface, read_target_surface, write_approx_surface,
@@ -68,7 +69,10 @@ def report_dict(report) -> dict:
             "off_target": {"share": round(float(report.off_target["share"]), 4),
                            "max_mm": round(float(report.off_target["max"]) / MM, 2)},
             "warnings": [str(w) for w in report.warnings],
-            "metric": {"face": str(report.metric["face"]), "min_ratio": round(float(report.metric["min_ratio"]), 5)}}
+            "metric": {"face": str(report.metric["face"]), "min_ratio": round(float(report.metric["min_ratio"]), 5)},
+            "folds": None if report.folds is None else {
+                "vertices": int(report.folds["vertices"]), "share": round(float(report.folds["share"]), 4),
+                "kappa_max_per_m": round(float(report.folds["kappa_max"]), 2)}}
 
 
 def approx_to_target(approx) -> dict:
@@ -106,6 +110,8 @@ def document(result: DesignResult) -> dict:
     if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
         doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
                              "message": str(a.relax.message)}
+    if result.fold_route is not None:    # Ŝ failed the σ test: the folded Ŝ searched (design.fold_route)
+        doc["fold_route"] = result.fold_route.summary_mm()
     if result.refine is not None:   # lengths refined through the inflation (check.refine)
         doc["refine"] = dict(result.refine)
         if result.open_loop is not None:     # what its inflations start from (airmat.check.inflation_check)
@@ -284,6 +290,8 @@ def _params(doc: dict, path: Path) -> DesignParams:
     kw["face_metric"] = bool(p.get("face_metric", False))
     # and before Equation 3 took the free face's span
     kw["free_face_span"] = bool(p.get("free_face_span", False))
+    # and before the fold route
+    kw["folds"] = bool(p.get("folds", False))
     return DesignParams(**kw)
 
 
@@ -301,9 +309,22 @@ def _report(doc: dict, path: Path) -> ConstructibilityReport | None:
                if "off_target" in r else {}),
             warnings=list(r.get("warnings", [])),
             **({"metric": {"face": str(r["metric"]["face"]), "min_ratio": float(r["metric"]["min_ratio"])}}
-               if "metric" in r else {}))
+               if "metric" in r else {}),
+            folds=None if r.get("folds") is None else {
+                "vertices": int(r["folds"]["vertices"]), "share": float(r["folds"]["share"]),
+                "kappa_max": float(r["folds"]["kappa_max_per_m"])})
     except (KeyError, TypeError, ValueError) as err:
         raise InputError(f"report lacks field {err}", path=path) from None
+
+
+def _fold_route(doc: dict, path: Path) -> FoldRoute | None:
+    r = doc.get("fold_route")
+    if r is None:
+        return None
+    try:
+        return FoldRoute.from_summary_mm(r)
+    except (KeyError, TypeError, ValueError) as err:
+        raise InputError(f"fold_route lacks field {err}", path=path) from None
 
 
 def _refine_block(doc: dict, path: Path, width: float, height: float) -> tuple:
@@ -387,4 +408,5 @@ def read_design(folder) -> DesignResult:
                            report=_report(doc, path))
     return DesignResult(name=name, approx=approx, pattern=pattern,
                         calibration=calibration, params=params, seed=int(_number(doc.get("seed", 0), "seed", path)),
-                        source=str(folder), refine=refine, open_loop=open_loop)
+                        source=str(folder), refine=refine, open_loop=open_loop,
+                        fold_route=_fold_route(doc, path))

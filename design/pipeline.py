@@ -24,6 +24,7 @@ from airmat.calib.model import kappa_max
 from airmat.design.calibration_source import CalibrationSource, default_calibration, from_calibration
 from airmat.design.coverage import pattern_coverage
 from airmat.design.field import MattressField
+from airmat.design.fold_route import FoldRoute, fold_route, needs_folds
 from airmat.design.pattern import Pattern
 from airmat.design.string_lengths import string_pattern
 from airmat.design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
@@ -86,6 +87,10 @@ class DesignParams:
         Evaluate Equation 3 at each string's free-face span on Ŝ (:mod:`airmat.design.free_face`:
         shorter where Ŝ compresses the face opposite the string). False: at the dash's
         span on Ω (the paper).
+    folds : bool
+        When Ŝ fails the σ test, search stiffer U_A edge lengths for a Ŝ that gathers the
+        excess into drape-like folds (:mod:`airmat.design.fold_route`, the paper's §4 dome).
+        False: keep the plain Ŝ and its verdict.
     """
 
     L: float | None = None
@@ -103,6 +108,7 @@ class DesignParams:
     tie_grid: float = 0.02
     face_metric: bool = True
     free_face_span: bool = True
+    folds: bool = True
 
     def weights(self) -> dict:
         """The U_A weights in use: given ones, else the surface side's defaults."""
@@ -123,7 +129,7 @@ class DesignParams:
                 "kappa_min_per_m": self.kappa_min,
                 "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points),
                 "tie_grid_mm": mm(self.tie_grid), "face_metric": bool(self.face_metric),
-                "free_face_span": bool(self.free_face_span)}
+                "free_face_span": bool(self.free_face_span), "folds": bool(self.folds)}
 
 
 @dataclass(frozen=True, repr=False)
@@ -159,6 +165,8 @@ class DesignResult(Summarized):
         A refined design's strings before any refinement, at their open-loop lengths, the
         dropped ones included: its inflations start from these strings' equilibrium and carry it
         on to the refined lengths (:func:`airmat.check.inflation_check.check`). None when not refined.
+    fold_route : airmat.design.fold_route.FoldRoute or None
+        What the fold route tried and chose, when the plain Ŝ failed the σ test; else None.
     """
 
     name: str
@@ -173,7 +181,7 @@ class DesignResult(Summarized):
     timings: dict = field(default_factory=dict, compare=False)
     refine: dict | None = None
     open_loop: tuple | None = field(default=None, repr=False)
-
+    fold_route: FoldRoute | None = field(default=None, repr=False)
 
     def _summary(self):
         rep = self.approx.report
@@ -250,10 +258,20 @@ def design(target, mattress, *, calibration=None,
     if not (params.tie_grid >= 0 and np.isfinite(params.tie_grid)):
         raise InputError(f"the tie grid pitch must be >= 0 mm (0: free ends), got {params.tie_grid * M_TO_MM!r}")
     reach = float(np.median(kappa_max(L, calibration.delta, calibration.d)))
-    approx = approximate_surface(target, mattress, spacing=params.spacing, **params.weights(), kappa_max=reach,
-                                 progress=progress, face_metric=params.face_metric, kappa_min=params.kappa_min,
-                                 string_margin=params.margin)
+    weights = params.weights()
+
+    def relax(k_a1: float, folds: bool = False) -> ApproxSurface:
+        return approximate_surface(target, mattress, spacing=params.spacing, **{**weights, "k_a1": k_a1},
+                                   kappa_max=reach, progress=progress, face_metric=params.face_metric,
+                                   kappa_min=params.kappa_min, string_margin=params.margin, folds=folds)
+
+    approx = relax(weights["k_a1"])
     timings = dict(approx.timings)
+    route = None
+    if params.folds and needs_folds(approx.report):
+        t = time.perf_counter()
+        approx, route = fold_route(approx, lambda k: relax(k, folds=True), k_a1=weights["k_a1"])
+        timings["fold_route"] = time.perf_counter() - t
     t = time.perf_counter()
     mfield = mattress_field(approx)
     timings["transfer"] = time.perf_counter() - t
@@ -273,4 +291,4 @@ def design(target, mattress, *, calibration=None,
                                   coverage=cover.summary_mm())
     timings["lengths"] = time.perf_counter() - t
     return DesignResult(name=target.name, approx=approx, pattern=pattern, calibration=calibration, params=params,
-                        seed=int(seed), mfield=mfield, stripes=stripes, timings=timings)
+                        seed=int(seed), mfield=mfield, stripes=stripes, timings=timings, fold_route=route)

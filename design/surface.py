@@ -77,7 +77,7 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
                         kappa_max: float | None = None,
                         curvature_radius: float = 2.5, progress: bool = True,
                         strict: bool = False, face_metric: bool = True,
-                        kappa_min: float = 0.25, string_margin: float = 0.03) -> ApproxSurface:
+                        kappa_min: float = 0.25, string_margin: float = 0.03, folds: bool = False) -> ApproxSurface:
     """Find Ŝ for ``target`` on ``mattress`` and its principal curvatures (paper §3.2).
 
     Parameters
@@ -115,6 +115,9 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
         |κ| (1/m) below which a family needs no string (and shortens no face).
     string_margin : float, default 0.03
         Dashes stay this far inside the mattress edge (m): no string shortens a face there.
+    folds : bool, default False
+        Ŝ may fold (:mod:`airmat.design.fold_route`): the verdict counts the curvature beyond
+        reach as folds while they are few (:func:`airmat.design.constructibility.constructibility`).
 
     Returns
     -------
@@ -158,7 +161,7 @@ def approximate_surface(target: Target, mattress: Mattress, *, spacing: float = 
             raise ConvergenceError(f"U_A relaxation {relax.message}", n_iter=relax.n_iter, residual=relax.residual)
     t = time.perf_counter()
     report = constructibility(relax.xyz, uv, faces, curv.kappa, sigma_band=sigma_band, kappa_max=kappa_max,
-                              off_target=relax.off_target, metric=metric)
+                              off_target=relax.off_target, metric=metric, folds=folds)
     timings["report"] = time.perf_counter() - t
     for warning in report.warnings:
         log.warning("Ŝ of %s: %s", target.name, warning)

@@ -127,6 +127,17 @@ def _verdict(rep) -> str:
     return head + text + warn
 
 
+def _fold_section(route) -> str:
+    """The fold route's trials (airmat.design.fold_route): σ and the price in distance to S of each."""
+    from html import escape
+
+    rows = [[f"× {t.ratio:g}" + (" (chosen)" if i == route.chosen else ""), f"{t.sigma_min:.3f}", f"{t.sigma_max:.3f}",
+             f"{t.to_target_rms * 1e3:.1f}", f"{t.to_target_max * 1e3:.1f}", f"{100 * t.fold_share:.1f}"]
+            for i, t in enumerate(route.trials)]
+    return ("<h3>Folds</h3>\n" + f'<p class="banner {"ok" if route.found else "bad"}">{escape(route.message)}.</p>\n'
+            + html_table(["k_A1", "σ min", "σ max", "Ŝ to S RMS (mm)", "Ŝ to S max (mm)", "folds (% of Ω)"], rows))
+
+
 def _refine_section(b: dict) -> str:
     """What the refinement through the inflation did: the deviation before and after, its iterations."""
     from html import escape
@@ -198,6 +209,8 @@ def design_part(result) -> Part:
                f"k2 {pat.n_no_string.get('k2', 0)}.</p>\n")
     if rep is not None:
         body += "<h3>Table-1 figures of Ŝ and the verdict</h3>\n" + _table1(rep) + _verdict(rep)
+        if getattr(result, "fold_route", None) is not None:
+            body += _fold_section(result.fold_route)
         if not rep.constructible:
             banners.append(("bad", "The design is NOT constructible: " + "; ".join(rep.reasons)))
     b = getattr(result, "refine", None)

@@ -64,7 +64,9 @@ def _constructible(design) -> tuple:
         return None, "Constructibility: not assessed."
     if rep.constructible:
         lo, hi = rep.sigma_band
-        return True, (f"Constructible: yes (σ within [{lo:g}, {hi:g}], |κ| ≤ {rep.kappa_max:.2f} 1/m).")
+        folds = "" if not rep.folds or not rep.folds["vertices"] else (
+            f"; drape-like folds on {100 * rep.folds['share']:.1f} % of Ω, where the mattress gathers by itself")
+        return True, (f"Constructible: yes (σ within [{lo:g}, {hi:g}], |κ| ≤ {rep.kappa_max:.2f} 1/m{folds}).")
     return False, "Constructible: NO (" + "; ".join(rep.reasons) + ")."
 
 

@@ -64,6 +64,10 @@ def add_parser(sub, parents):
     p.add_argument("--dash-span", action="store_true",
                    help="string lengths from Equation 3 at each dash's span on the flat mattress (the paper), "
                         "not at the span its free face has on the approximated surface")
+    p.add_argument("--no-folds", action="store_true",
+                   help="keep the plain approximated surface when it strains the mattress beyond its sigma band, "
+                        "instead of searching stiffer edge weights for one that gathers into drape-like folds "
+                        "(the paper's dome)")
     p.add_argument("--refine", action="store_true",
                    help="refine the string lengths through the simulated inflation (adjoint Gauss-Newton), "
                         "so that the inflated named face lands on the approximated surface")
@@ -162,7 +166,8 @@ def _params(args):
                         step=None if args.step_mm is None else args.step_mm * mm, k_a1=args.k_a1,
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
                         weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm,
-                        face_metric=not args.flat_metric, free_face_span=not args.dash_span)
+                        face_metric=not args.flat_metric, free_face_span=not args.dash_span,
+                        folds=not args.no_folds)
 
 
 def summary_text(doc: dict, out) -> str:
@@ -185,6 +190,8 @@ def summary_text(doc: dict, out) -> str:
         lines.append(f"  ends tied to the {tg['grid_mm']:g} mm grid: moved {tg['end_shift_mm']['mean']:.1f} mm on "
                      f"average (max {tg['end_shift_mm']['max']:.1f}), L changed by up to "
                      f"{tg['dL_mm']['max_abs']:.1f} mm")
+    if doc.get("fold_route"):
+        lines.append(f"  fold route: {doc['fold_route']['message']}")
     lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
     lines.extend(f"  warning: {n}" for n in s.get("notes", []) if "extrapolated" in n)
     lines.append("  constructible: yes" if r["constructible"] else

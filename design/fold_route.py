@@ -1,0 +1,207 @@
+"""The fold route: when Ŝ strains the mattress more than it can, let it gather into drape-like folds.
+
+A doubly curved target S with K > 0 (a dome) cannot be covered by the flat mattress without
+contracting its rim: pulled onto S, Ŝ spreads that strain over σ = 0.86 … 1.25, which the
+membrane cannot make. The paper (§4, the dome of Table 1) makes such a shape constructible "by
+introducing drape-like folds to reduce the Gaussian curvature", found by hand through the
+weights of U_A. This module searches those weights: it stiffens the edge lengths (k_A1, against
+the closest-point pull k_A2) by growing factors until the relaxation, keeping the mattress's
+lengths, gathers the excess into a few folds and σ falls inside the fold band (the paper's dome:
+σ min 0.934). Ŝ then leaves S by the folds' height: that price, Ŝ's distance to S, is reported for
+every trial.
+
+Along a fold |κ| exceeds what a string makes (the paper's dome: 35 1/m); those vertices are the
+folds, where the mattress buckles by itself, and the constructibility verdict counts them as such
+(:func:`airmat.design.constructibility.constructibility`, ``folds``) when they cover a small share
+of Ω. Units: m and 1/m.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from airmat.design.closest_point import MeshProjector
+from airmat.geometry.topology import flat_vertex_areas
+
+__all__ = ["FOLD_SIGMA_BAND", "FOLD_RATIOS", "FoldTrial", "FoldRoute", "fold_route",
+           "fold_vertices", "needs_folds"]
+
+log = logging.getLogger(__name__)
+
+#: σ band a folded Ŝ must keep to (the paper's built dome: σ min 0.934, avg 0.997; Table 1)
+FOLD_SIGMA_BAND = (0.93, 1.07)
+#: factors on k_A1 tried in turn (the relaxation's k_A2 and k_A3 kept)
+FOLD_RATIOS = (3.0, 10.0, 30.0, 100.0)
+
+
+@dataclass(frozen=True)
+class FoldTrial:
+    """One relaxation of the search.
+
+    Attributes
+    ----------
+    ratio : float
+        Factor on the design's k_A1 (1: the plain Ŝ).
+    k_a1 : float
+    sigma_min, sigma_max : float
+        Edge length ratio Ŝ / Ω (in the named face's metric where it has one).
+    to_target_rms, to_target_max : float
+        Ŝ's distance to S (m).
+    fold_share : float
+        Share of Ω's area whose |κ| exceeds the reachable curvature.
+    within_band : bool
+        σ inside the fold band.
+    converged : bool
+        The relaxation's own verdict.
+    """
+
+    ratio: float
+    k_a1: float
+    sigma_min: float
+    sigma_max: float
+    to_target_rms: float
+    to_target_max: float
+    fold_share: float
+    within_band: bool
+    converged: bool
+
+    def excursion(self, band) -> float:
+        """How far σ leaves ``band`` (0 inside)."""
+        lo, hi = band
+        return max(lo - self.sigma_min, self.sigma_max - hi, 0.0)
+
+    def summary_mm(self) -> dict:
+        """The trial in file units (mm)."""
+        return {"ratio": self.ratio, "k_a1": self.k_a1, "sigma_min": round(self.sigma_min, 5),
+                "sigma_max": round(self.sigma_max, 5), "to_target_rms_mm": round(self.to_target_rms * 1e3, 3),
+                "to_target_max_mm": round(self.to_target_max * 1e3, 3), "fold_share": round(self.fold_share, 4),
+                "within_band": bool(self.within_band), "converged": bool(self.converged)}
+
+    @classmethod
+    def from_summary_mm(cls, d: dict) -> "FoldTrial":
+        """The trial from its file form (:meth:`summary_mm`)."""
+        return cls(ratio=float(d["ratio"]), k_a1=float(d["k_a1"]), sigma_min=float(d["sigma_min"]),
+                   sigma_max=float(d["sigma_max"]), to_target_rms=float(d["to_target_rms_mm"]) / 1e3,
+                   to_target_max=float(d["to_target_max_mm"]) / 1e3, fold_share=float(d["fold_share"]),
+                   within_band=bool(d["within_band"]), converged=bool(d["converged"]))
+
+
+@dataclass(frozen=True)
+class FoldRoute:
+    """What the fold route tried and chose.
+
+    Attributes
+    ----------
+    trials : tuple of FoldTrial
+        The plain Ŝ first, then each stiffened relaxation, in the order tried.
+    chosen : int
+        Index into ``trials`` of the Ŝ the design uses: the first within the band, else the one
+        whose σ leaves it least.
+    sigma_band : (float, float)
+    found : bool
+        A trial within the band was found.
+    message : str
+        One sentence for the user: what was chosen and its price, or why none was found.
+    """
+
+    trials: tuple
+    chosen: int
+    sigma_band: tuple
+    found: bool
+    message: str
+
+    def summary_mm(self) -> dict:
+        """design.json's ``fold_route`` block (mm)."""
+        return {"found": bool(self.found), "chosen": int(self.chosen),
+                "sigma_band": [float(b) for b in self.sigma_band], "message": self.message,
+                "trials": [t.summary_mm() for t in self.trials]}
+
+    @classmethod
+    def from_summary_mm(cls, d: dict) -> "FoldRoute":
+        """The route from design.json's ``fold_route`` block (:meth:`summary_mm`)."""
+        return cls(trials=tuple(FoldTrial.from_summary_mm(t) for t in d["trials"]), chosen=int(d["chosen"]),
+                   sigma_band=tuple(float(b) for b in d["sigma_band"]), found=bool(d["found"]),
+                   message=str(d["message"]))
+
+    @property
+    def trial(self) -> FoldTrial:
+        """The chosen trial."""
+        return self.trials[self.chosen]
+
+
+def needs_folds(report) -> bool:
+    """Ŝ fails the σ test (the case the fold route is for; a curvature beyond reach alone is not)."""
+    return report is not None and any(r.startswith("σ") for r in report.reasons)
+
+
+def fold_vertices(kappa, kappa_max: float) -> np.ndarray:
+    """Vertices where |κ| exceeds the reachable curvature, shape (n,) bool: the folds of a folded Ŝ."""
+    return np.abs(np.asarray(kappa)).max(axis=1) > kappa_max
+
+
+def _trial(approx, ratio, k_a1, band, projector) -> FoldTrial:
+    rep = approx.report
+    dist = projector.closest(approx.xyz).distance
+    folds = fold_vertices(approx.curvature.kappa, rep.kappa_max)
+    area = flat_vertex_areas(approx.uv, approx.faces)
+    lo, hi = band
+    return FoldTrial(ratio=float(ratio), k_a1=float(k_a1), sigma_min=float(rep.sigma["min"]),
+                     sigma_max=float(rep.sigma["max"]), to_target_rms=float(np.sqrt(np.mean(dist ** 2))),
+                     to_target_max=float(dist.max()), fold_share=float(area @ folds / area.sum()),
+                     within_band=bool(lo <= rep.sigma["min"] and rep.sigma["max"] <= hi),
+                     converged=bool(approx.relax.converged))
+
+
+def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_band=FOLD_SIGMA_BAND):
+    """Search the U_A weights for a folded Ŝ whose σ keeps to ``sigma_band``.
+
+    Parameters
+    ----------
+    approx : airmat.design.surface.ApproxSurface
+        The plain Ŝ (it failed the σ test).
+    relax_with : callable
+        ``relax_with(k_a1) -> ApproxSurface``: the same relaxation with another k_A1, its verdict
+        counting the curvature beyond reach as folds (``approximate_surface(..., folds=True)``).
+    k_a1 : float
+        The plain Ŝ's k_A1.
+    ratios : sequence of float
+        Factors on ``k_a1`` tried in turn; the search stops at the first Ŝ within the band.
+    sigma_band : (float, float)
+
+    Returns
+    -------
+    approx : ApproxSurface
+        The chosen Ŝ: the first trial within the band, else the one whose σ leaves it least (the
+        plain one, as given, when none did better).
+    route : FoldRoute
+    """
+    target = approx.target
+    projector = MeshProjector(target.vertices, target.faces)
+    surfaces = [approx]
+    trials = [_trial(approx, 1.0, k_a1, sigma_band, projector)]
+    for ratio in ratios:
+        log.info("fold route: relaxing with k_A1 × %g", ratio)
+        surfaces.append(relax_with(k_a1 * ratio))
+        trials.append(_trial(surfaces[-1], ratio, k_a1 * ratio, sigma_band, projector))
+        if trials[-1].within_band:
+            break
+    found = trials[-1].within_band
+    chosen = len(trials) - 1 if found else int(np.argmin([t.excursion(sigma_band) for t in trials]))
+    t = trials[chosen]
+    lo, hi = sigma_band
+    if found:
+        message = (f"Ŝ gathers into drape-like folds with k_A1 × {t.ratio:g}: σ {t.sigma_min:.3f}–{t.sigma_max:.3f} "
+                   f"within [{lo:g}, {hi:g}], folds on {100 * t.fold_share:.1f} % of Ω; the price: Ŝ lies "
+                   f"{1e3 * t.to_target_rms:.1f} mm RMS (max {1e3 * t.to_target_max:.1f}) from S, against "
+                   f"{1e3 * trials[0].to_target_rms:.1f} mm unfolded")
+    else:
+        message = (f"no constructible Ŝ: with k_A1 up to × {max(ratios):g} σ still leaves [{lo:g}, {hi:g}]; the "
+                   f"best found (k_A1 × {t.ratio:g}) has σ {t.sigma_min:.3f}–{t.sigma_max:.3f}, "
+                   f"{1e3 * t.to_target_rms:.1f} mm RMS from S: the target asks more of the mattress than it can "
+                   f"gather into folds")
+    log.info("fold route: %s", message)
+    return surfaces[chosen], FoldRoute(trials=tuple(trials), chosen=chosen, sigma_band=tuple(map(float, sigma_band)),
+                                     found=bool(found), message=message)

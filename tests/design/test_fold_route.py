@@ -1,0 +1,154 @@
+"""The fold route (airmat.design.fold_route): a dome the flat mattress cannot cover gathers into folds.
+
+Ground truth: an ellipsoidal dome past its equator (the preset) strains the plain Ŝ to σ 0.86–1.25;
+the paper built its dome with folds at σ ≥ 0.934. The search must find a Ŝ within [0.93, 1.07], say
+what it costs in distance to S, count its folds as folds, and leave a constructible target alone.
+"""
+
+import importlib.resources
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from airmat.design.constructibility import FOLD_SHARE_MAX, constructibility
+from airmat.design.design_io import read_design, write_design
+from airmat.design.fold_route import FOLD_SIGMA_BAND, fold_route, needs_folds
+from airmat.design.mattress import Mattress, triangulate_mattress
+from airmat.design.pipeline import DesignParams, design
+from airmat.design.presets import preset
+from airmat.report.design import design_part
+
+
+@pytest.fixture(scope="module")
+def dome():
+    """The dome preset designed on a 40 mm Ω (the fold route at the default one takes a minute)."""
+    target, mattress = preset("dome")
+    return design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
+
+
+@pytest.fixture(scope="module")
+def plain_dome():
+    target, mattress = preset("dome")
+    return design(target, mattress, params=DesignParams(spacing=0.04, folds=False), progress=False)
+
+
+def test_the_plain_dome_fails_the_sigma_test(plain_dome):
+    rep = plain_dome.approx.report
+    assert needs_folds(rep)
+    assert rep.sigma["min"] < FOLD_SIGMA_BAND[0] or rep.sigma["max"] > FOLD_SIGMA_BAND[1]
+    assert plain_dome.fold_route is None
+
+
+def test_the_dome_gathers_into_folds_within_the_papers_sigma_band(dome, plain_dome):
+    route, rep = dome.fold_route, dome.approx.report
+    assert route is not None and route.found
+    lo, hi = FOLD_SIGMA_BAND
+    assert lo <= rep.sigma["min"] and rep.sigma["max"] <= hi
+    assert rep.constructible, rep.reasons
+    assert route.trials[0].ratio == 1.0 and route.trial.ratio > 1.0
+    assert route.trial.k_a1 == pytest.approx(route.trial.ratio * DesignParams().weights()["k_a1"])
+    # the first trial within the band is the one chosen: every earlier one is outside it
+    assert route.chosen == len(route.trials) - 1
+    assert not any(t.within_band for t in route.trials[:-1])
+    # the price is measured: the folded Ŝ leaves S further than the plain one, which lies on it
+    plain = route.trials[0]
+    assert route.trial.to_target_rms > plain.to_target_rms
+    assert plain.sigma_min == pytest.approx(plain_dome.approx.report.sigma["min"])
+    assert f"k_A1 × {route.trial.ratio:g}" in route.message and "mm RMS" in route.message
+    # Ŝ leaves S by folds: heights of centimetres, not a different shape
+    assert route.trial.to_target_rms < 0.01
+
+
+def test_the_fold_route_leaves_a_constructible_target_alone():
+    target, mattress = preset("vault1")
+    r = design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
+    assert r.approx.report.constructible and r.fold_route is None and r.approx.report.folds is None
+
+
+def test_design_json_keeps_the_route_and_the_folds(dome, tmp_path):
+    jsonschema = pytest.importorskip("jsonschema")
+    write_design(dome, tmp_path / "d")
+    doc = json.loads((tmp_path / "d" / "design.json").read_text())
+    schema = json.loads((importlib.resources.files("airmat") / "schemas" / "design.schema.json").read_text())
+    jsonschema.Draft202012Validator(schema).validate(doc)
+    assert doc["fold_route"]["found"] and doc["report"]["folds"] is not None
+    back = read_design(tmp_path / "d")
+    html = design_part(back).body                       # report.html's design part, from the folder
+    assert "<h3>Folds</h3>" in html and "(chosen)" in html
+    assert back.fold_route.summary_mm() == dome.fold_route.summary_mm()      # rounded as in the file
+    assert back.params.folds is True
+    assert back.approx.report.constructible == dome.approx.report.constructible
+
+
+# --- the verdict with folds, on a flat Ω with a made-up curvature -------------------------------------------------
+
+@pytest.fixture(scope="module")
+def omega():
+    return triangulate_mattress(Mattress(0.6, 0.5), spacing=0.05)
+
+
+def _kappa(uv, share_u):
+    """|κ1| = 100 1/m on the vertices with u below ``share_u`` (m), 1 1/m elsewhere."""
+    k = np.ones((len(uv), 2))
+    k[uv[:, 0] < share_u, 0] = 100.0
+    return k
+
+
+def test_a_few_folds_are_no_reason_but_are_reported(omega):
+    uv, faces = omega
+    xyz = np.column_stack([uv, np.zeros(len(uv))])
+    kappa = _kappa(uv, 0.01)                     # one column of vertices: a fold along the rim
+    plain = constructibility(xyz, uv, faces, kappa)
+    assert not plain.constructible and "exceeds the reachable" in plain.reasons[0] and plain.folds is None
+    folded = constructibility(xyz, uv, faces, kappa, folds=True)
+    assert folded.constructible and folded.reasons == []
+    assert 0 < folded.folds["share"] <= FOLD_SHARE_MAX
+    assert folded.folds["vertices"] == int((uv[:, 0] < 0.01).sum())
+    assert folded.folds["kappa_max"] == pytest.approx(100.0)
+    assert any("drape-like folds" in w for w in folded.warnings)
+
+
+def test_curvature_beyond_reach_over_much_of_the_mattress_is_no_fold(omega):
+    uv, faces = omega
+    xyz = np.column_stack([uv, np.zeros(len(uv))])
+    rep = constructibility(xyz, uv, faces, _kappa(uv, 0.2), folds=True)
+    assert not rep.constructible
+    assert rep.folds["share"] > FOLD_SHARE_MAX
+    assert "too much for folds" in rep.reasons[0]
+
+
+# --- the search itself, on stand-in relaxations whose σ is given ---------------------------------------------------
+
+def _stand_in(sig_lo, sig_hi, offset):
+    """An ApproxSurface stand-in: a flat Ŝ ``offset`` (m) above the flat target, with σ as given."""
+    uv, faces = triangulate_mattress(Mattress(0.3, 0.2), spacing=0.05)
+    target = SimpleNamespace(vertices=np.column_stack([uv, np.zeros(len(uv))]), faces=faces)
+    report = SimpleNamespace(sigma={"min": sig_lo, "max": sig_hi}, kappa_max=15.0)
+    return SimpleNamespace(target=target, xyz=np.column_stack([uv, np.full(len(uv), offset)]), uv=uv, faces=faces,
+                           report=report, curvature=SimpleNamespace(kappa=np.zeros((len(uv), 2))),
+                           relax=SimpleNamespace(converged=True))
+
+
+def test_the_search_stops_at_the_first_weight_within_the_band():
+    tried = []
+    table = {3.0: (0.90, 1.10, 0.001), 10.0: (0.95, 1.05, 0.002), 30.0: (0.97, 1.03, 0.003)}
+
+    def relax_with(k):
+        tried.append(k)
+        return _stand_in(*table[k])
+
+    approx, route = fold_route(_stand_in(0.85, 1.2, 0.0), relax_with, k_a1=1.0, ratios=(3.0, 10.0, 30.0))
+    assert tried == [3.0, 10.0]
+    assert route.found and route.chosen == 2 and approx.report.sigma["min"] == 0.95
+    assert route.trial.to_target_rms == pytest.approx(0.002)
+
+
+def test_without_a_weight_within_the_band_the_best_found_is_kept_and_said():
+    table = {3.0: (0.88, 1.12, 0.001), 10.0: (0.91, 1.09, 0.002)}
+    approx, route = fold_route(_stand_in(0.80, 1.25, 0.0), lambda k: _stand_in(*table[k]), k_a1=1.0,
+                               ratios=(3.0, 10.0))
+    assert not route.found and route.chosen == 2          # σ leaves the band least there (0.02)
+    assert approx.report.sigma["max"] == 1.09
+    assert route.message.startswith("no constructible Ŝ") and "× 10" in route.message
