@@ -99,11 +99,15 @@ def run_entry(entry, *, resolution: float, spacing: float, max_iter: int, folder
     converged = converged and r.converged and c.converged
     return {**row, "open_loop": r.deviation_before, "refined": med.deviation, "to_s": med.to_target,
             "approx_to_s": approx_to_s, "converged": converged, "exit": OK if converged else NOT_CONVERGED,
-            "seconds": time.perf_counter() - t0, "strings": len(r.design.pattern.strings)}
+            "seconds": time.perf_counter() - t0, "strings": len(r.design.pattern.strings),
+            "design_seconds": sum(result.timings.values()), "refine_ratio": r.seconds / r.inflation_seconds,
+            "folds": "" if result.fold_route is None else
+            f"k_A1 × {result.fold_route.trial.ratio:g}" if result.fold_route.found else "none found"}
 
 
-HEADER = ("| target | kind | mattress (mm) | expected | constructible | open loop % diag | refined % diag "
-          "| to S: RMS mm (% diag) | Ŝ to S RMS mm | strings | converged | exit | seconds |")
+HEADER = ("| target | kind | mattress (mm) | expected | constructible | folds | open loop % diag | refined % diag "
+          "| to S: RMS mm (% diag) | Ŝ to S RMS mm | strings | converged | exit | design (s) "
+          "| refine / one inflation | seconds |")
 
 
 def format_row(row: dict) -> str:
@@ -111,12 +115,13 @@ def format_row(row: dict) -> str:
     head = f"| {row['name']} | {row['kind']} | {w / MM:.0f} × {h / MM:.0f} | {row['expected']} |"
     if "refined" not in row:
         why = row.get("message", "").split(":")[0][:60]
-        return head + f" – | – | – | – | – | – | – | {row['exit']} ({why}) | {row['seconds']:.1f} |"
+        return head + f" – | – | – | – | – | – | – | – | {row['exit']} ({why}) | – | – | {row['seconds']:.1f} |"
     ts = row["to_s"]
-    return (head + f" {'yes' if row['constructible'] else 'no'} | {row['open_loop'].rms_pct_diag:.2f} "
+    return (head + f" {'yes' if row['constructible'] else 'no'} | {row['folds'] or '–'} "
+            f"| {row['open_loop'].rms_pct_diag:.2f} "
             f"| {row['refined'].rms_pct_diag:.2f} | {ts.rms / MM:.1f} ({ts.rms_pct_diag:.2f}) "
             f"| {row['approx_to_s'].rms / MM:.1f} | {row['strings']} | {'yes' if row['converged'] else 'no'} "
-            f"| {row['exit']} | {row['seconds']:.1f} |")
+            f"| {row['exit']} | {row['design_seconds']:.1f} | {row['refine_ratio']:.1f}× | {row['seconds']:.1f} |")
 
 
 def misses(rows) -> list:
@@ -149,7 +154,7 @@ def main(argv=None) -> int:
     entries = [e for e in zoo(seed=args.seed) if args.only is None or e.name in args.only]
     spacing = (args.spacing_mm or args.resolution_mm) * MM
     print(HEADER)
-    print("|---|---|---|---|---|---:|---:|---:|---:|---:|---|---:|---:|", flush=True)
+    print("|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|", flush=True)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for entry in entries:

@@ -14,6 +14,9 @@ back as a user's file would be), and what the designer is expected to say:
   by about |K| a² / 6 (a geodesic disk's perimeter), so shapes with |K| a² / 6 well
   below the band's 10 % are constructible and those well above it (domes, tight
   helicoids, egg crates) are not;
+  The designer's fold route (``airmat.design.fold_route``) then searches, for a target that
+  is not, a Ŝ whose σ keeps to the paper's 0.93–1.07 by folding (or, on a saddle, by
+  flattening), so its final verdict may be yes;
 - ``refused``: the designer refuses the target before any work (a size 0.2 to 50
   times the mattress's diagonal is accepted, :func:`airmat.design.target.check_scale`;
   outside that it is a units slip: exit code 2 on the command line).

@@ -8,7 +8,8 @@ weights of U_A. This module searches those weights: it stiffens the edge lengths
 the closest-point pull k_A2) by growing factors until the relaxation, keeping the mattress's
 lengths, gathers the excess into a few folds and σ falls inside the fold band (the paper's dome:
 σ min 0.934). Ŝ then leaves S by the folds' height: that price, Ŝ's distance to S, is reported for
-every trial.
+every trial. On a saddle too strong for the membrane (K < 0: the rim would have to stretch) the
+same search gives a flatter Ŝ rather than folds, and says what it costs the same way.
 
 Along a fold |κ| exceeds what a string makes (the paper's dome: 35 1/m); those vertices are the
 folds, where the mattress buckles by itself, and the constructibility verdict counts them as such
@@ -193,10 +194,10 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     t = trials[chosen]
     lo, hi = sigma_band
     if found:
-        message = (f"Ŝ gathers into drape-like folds with k_A1 × {t.ratio:g}: σ {t.sigma_min:.3f}–{t.sigma_max:.3f} "
-                   f"within [{lo:g}, {hi:g}], folds on {100 * t.fold_share:.1f} % of Ω; the price: Ŝ lies "
-                   f"{1e3 * t.to_target_rms:.1f} mm RMS (max {1e3 * t.to_target_max:.1f}) from S, against "
-                   f"{1e3 * trials[0].to_target_rms:.1f} mm unfolded")
+        message = (f"with k_A1 × {t.ratio:g} Ŝ keeps σ within [{lo:g}, {hi:g}] ({t.sigma_min:.3f}–{t.sigma_max:.3f}), "
+                   f"folds on {100 * t.fold_share:.1f} % of Ω; the price: Ŝ lies {1e3 * t.to_target_rms:.1f} mm RMS "
+                   f"(max {1e3 * t.to_target_max:.1f}) from S, against {1e3 * trials[0].to_target_rms:.1f} mm "
+                   f"with the plain weights")
     else:
         message = (f"no constructible Ŝ: with k_A1 up to × {max(ratios):g} σ still leaves [{lo:g}, {hi:g}]; the "
                    f"best found (k_A1 × {t.ratio:g}) has σ {t.sigma_min:.3f}–{t.sigma_max:.3f}, "

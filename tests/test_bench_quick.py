@@ -39,7 +39,8 @@ HEADERS = {
     "bench_tolerance.py": ["| preset | mesh (mm) | strings | K |", "validation: spread / per-sample error",
                            "95 % band: median rel. diff"],
     "bench_startup.py": ["current (s)", "loaded now", "| path | HEAD | current |"],
-    "bench_zoo.py": ["| target | kind |", "open loop % diag", "to S: RMS mm (% diag)", "| exit |"],
+    "bench_zoo.py": ["| target | kind |", "open loop % diag", "to S: RMS mm (% diag)", "| exit |", "| folds |",
+                     "refine / one inflation"],
 }
 #: modules of bench/ that are not benchmarks (imported by them)
 HELPERS = {"designed_preset.py", "kangaroo_baseline.py", "recipe_cylinder.py", "run_all.py"}

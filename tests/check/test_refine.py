@@ -289,3 +289,18 @@ def test_lengths_that_verify_worse_are_not_kept_and_the_message_names_what_is(ca
     name = "refined" if already else "open-loop"
     assert f"not better than the {name}" in r.message and f"the {name} lengths are kept" in r.message
     assert r.lengths_before == r.block()["lengths_before"] == name
+
+
+@pytest.mark.slow
+def test_a_refinement_misled_by_the_coarse_mesh_tries_again_with_defect_corrections():
+    # the symmetric saddle κ = ±2 1/m: the coarse iterations' lengths wrinkle the fine mesh and inflate farther
+    # from Ŝ than the open loop (1.54 % of the diagonal); the refinement runs again with defect corrections
+    from airmat.check.refinement import FALLBACK_CORRECTIONS
+    from airmat.design.pipeline import design
+    from airmat.design.presets import SMALL
+    from airmat.synthetic.targets import saddle
+
+    d = design(saddle(0.5, 0.5, extent=(1.0, 0.9)), SMALL, progress=False)
+    r = refine(d, resolution=0.02)
+    assert r.coarse_resolution is not None and 1 <= len(r.corrections) <= FALLBACK_CORRECTIONS
+    assert r.converged and r.deviation_after.rms < 0.8 * r.deviation_before.rms

@@ -57,6 +57,7 @@ def test_the_dome_gathers_into_folds_within_the_papers_sigma_band(dome, plain_do
     assert route.trial.to_target_rms > plain.to_target_rms
     assert plain.sigma_min == pytest.approx(plain_dome.approx.report.sigma["min"])
     assert f"k_A1 × {route.trial.ratio:g}" in route.message and "mm RMS" in route.message
+    assert f"{route.trial.to_target_rms * 1e3:.1f} mm RMS" in route.message
     # Ŝ leaves S by folds: heights of centimetres, not a different shape
     assert route.trial.to_target_rms < 0.01
 
