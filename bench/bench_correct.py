@@ -6,7 +6,7 @@ Usage::
     .venv/bin/python bench/bench_correct.py --shapes saddle --open-loop   # the open-loop design built instead
     .venv/bin/python bench/bench_correct.py --quick               # a smoke run: saddle at 40 mm, open loop, 50 000 points
 
-Each shape (a preset designed with the paper's calibration values, seed 0, and refined through the
+Each shape (a preset or a zoo target designed with the paper's calibration values, seed 0, and refined through the
 inflation at the benchmark's resolution, as a design is before it is built; ``--open-loop``: not
 refined) is built in a true world whose Δ and d lie 2 mm above the design
 calibration's 95 % intervals, every string cut within ±3 mm (uniform, seeded), inflated the check's
@@ -49,7 +49,9 @@ from airmat.check.string_world import world_strings  # noqa: E402
 from airmat.inflation.simulate import inflate, inflate_from  # noqa: E402
 from airmat.units import MM  # noqa: E402
 
-SHAPES = ("vault1", "saddle", "vault2", "dome")
+#: presets, and zoo targets of other kinds (airmat.synthetic.zoo)
+SHAPES = ("vault1", "saddle", "vault2", "dome", "wave-once", "cone-r300", "hypar-0.3", "helicoid-p2000",
+          "vault-catenary", "conoid")
 CUT = 3 * MM
 NOISE = 0.5 * MM
 Z95 = 1.959963984540054

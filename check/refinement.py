@@ -49,9 +49,11 @@ is exact only at the open-loop lengths; ``corrections=n`` re-takes it (a
 defect correction) up to n times where the coarse iterations stop early: the
 fine mesh is solved at their lengths, from the prolonged coarse equilibrium,
 the coarse face is re-corrected there, and the iterations go on. When the
-iterations ran without corrections and their lengths inflate farther from Ŝ
-than the given ones on the fine mesh (the coarse face misled them: the
-symmetric saddle), the refinement runs again with FALLBACK_CORRECTIONS.
+two-level iterations ran without corrections and their lengths inflate
+farther from Ŝ than the given ones on the fine mesh (the coarse face misled
+them: the symmetric saddle, whose fine mesh wrinkles where the coarse one
+does not), the refinement runs again with FALLBACK_CORRECTIONS, then, if
+that fails too, with every iteration on the target mesh.
 
 Ŝ re-parametrized (:mod:`airmat.check.reparametrize`): the deviation compares
 points through Ω, and Ŝ's points sit where the designer's model of the
@@ -490,12 +492,10 @@ def verify(setup: RefineProblem, iterations: Iterations, options: RefineOptions,
 FALLBACK_CORRECTIONS = 2
 
 
-def _misled_by_the_coarse_mesh(refinement: Refinement, iterations: Iterations, options: RefineOptions) -> bool:
-    """The two-level iterations ran without defect corrections and their lengths, inflated on the fine
-    mesh, landed farther from Ŝ than the given ones (which :func:`verify` then kept): the coarse face
-    misled them (the symmetric saddle, whose fine mesh wrinkles where the coarse one does not)."""
-    kept = refinement.deviation_after is refinement.deviation_before and not refinement.converged
-    return kept and iterations.coarse_resolution is not None and options.corrections == 0
+def _kept_the_given_lengths(refinement: Refinement) -> bool:
+    """The refined lengths, inflated on the target mesh, landed farther from Ŝ than the given ones (or did not
+    converge), so :func:`verify` kept the given ones."""
+    return refinement.deviation_after is refinement.deviation_before and not refinement.converged
 
 
 def refine(design, options: RefineOptions | None = None, **overrides) -> Refinement:
@@ -527,10 +527,17 @@ def refine(design, options: RefineOptions | None = None, **overrides) -> Refinem
     setup = set_up_problem(design, options)
     iterations = run_iterations(setup, options)
     refinement = verify(setup, iterations, options, started)
-    if _misled_by_the_coarse_mesh(refinement, iterations, options):
-        log.info("refinement: %s; again with %d defect corrections", refinement.message, FALLBACK_CORRECTIONS)
-        retry = dataclasses.replace(options, corrections=FALLBACK_CORRECTIONS)
-        refinement = verify(setup, run_iterations(setup, retry), retry, started)
+    if iterations.coarse_resolution is not None and options.corrections == 0:
+        for how, retry in ((f"{FALLBACK_CORRECTIONS} defect corrections",
+                            dataclasses.replace(options, corrections=FALLBACK_CORRECTIONS)),
+                           ("every iteration on the target mesh", dataclasses.replace(options, coarsest=0.0))):
+            if not _kept_the_given_lengths(refinement):
+                break
+            log.info("refinement: %s; again with %s", refinement.message, how)
+            # the stages move the trial problem's Ŝ (re-parametrized) and face offset: start again from a fresh one
+            fresh = dataclasses.replace(setup, problem=make_problem(setup.mesh, setup.strings, retry.params, design,
+                                                                    setup.surface, retry.tol))
+            refinement = verify(fresh, run_iterations(fresh, retry), retry, started)
     log.info("refinement: %s in %d iterations, %.1f s (one inflation %.1f s); %s face RMS %.2f -> %.2f mm",
              "converged" if refinement.converged else "not converged", refinement.iterations, refinement.seconds,
              refinement.inflation_seconds, refinement.surface, refinement.deviation_before.rms * 1e3,

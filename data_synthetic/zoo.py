@@ -219,6 +219,8 @@ def _hypars():
                note="equal magnitudes"),
         _entry("hypar-1.0-xy", "hypar", zs.graph_map(lambda x, y: -1.5 * x * y), *e, degrees=(0, 0, 30),
                params={"k1": 1.5, "ratio": 1.0}, note="z = −1.5 xy: equal magnitudes along the diagonals"),
+        _entry("hypar-1.0-k2", "hypar", _hypar(2.0, 1.0), (-0.5, 0.5), (-0.45, 0.45),
+               params={"k1": 2.0, "ratio": 1.0}, note="equal magnitudes at ±2 1/m over 1.0 × 0.9 m"),
         _entry("hypar-1.0-strong", "hypar", _hypar(4.0, 1.0), *e, constructible=False,
                params={"k1": 4.0, "ratio": 1.0}, note="K = −16 1/m²: beyond the membrane's strain"),
         _entry("hypar-0.5-large", "hypar", _hypar(0.8, 0.5), (-1.5, 1.5), (-1.0, 1.0), size="large", spacing=0.03,
