@@ -85,6 +85,8 @@ def describe_design(doc: dict) -> list[str]:
         after = r.get("deviation_after") or {}
         if after.get("rms_pct_diag") is not None:
             deviation = f"; deviation {after['rms_pct_diag']:.2f} % of the diagonal (simulated)"
+    if doc.get("fold_route"):
+        lines.append(f"  fold route: {doc['fold_route'].get('message', '?')}")
     verdict = "yes" if rep.get("constructible") else "NO: " + "; ".join(rep.get("reasons", []))
     lines.append(f"  verdict: constructible: {verdict}{deviation}; converged: {_yes(all(converged))}")
     return lines

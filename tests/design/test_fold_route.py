@@ -75,6 +75,9 @@ def test_design_json_keeps_the_route_and_the_folds(dome, tmp_path):
     schema = json.loads((importlib.resources.files("airmat") / "schemas" / "design.schema.json").read_text())
     jsonschema.Draft202012Validator(schema).validate(doc)
     assert doc["fold_route"]["found"] and doc["report"]["folds"] is not None
+    from airmat.cli.info import describe_design
+
+    assert any(line.startswith("  fold route: with k_A1 ×") for line in describe_design(doc))
     back = read_design(tmp_path / "d")
     html = design_part(back).body                       # report.html's design part, from the folder
     assert "<h3>Folds</h3>" in html and "(chosen)" in html
