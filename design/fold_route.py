@@ -165,7 +165,8 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
         The plain Ŝ (it failed the σ test).
     relax_with : callable
         ``relax_with(k_a1) -> ApproxSurface``: the same relaxation with another k_A1, its verdict
-        counting the curvature beyond reach as folds (``approximate_surface(..., folds=True)``).
+        judged by ``sigma_band`` and counting the curvature beyond reach as folds
+        (``approximate_surface(..., folds=True, sigma_band=sigma_band)``).
     k_a1 : float
         The plain Ŝ's k_A1.
     ratios : sequence of float

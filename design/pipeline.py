@@ -24,7 +24,7 @@ from airmat.calib.model import kappa_max
 from airmat.design.calibration_source import CalibrationSource, default_calibration, from_calibration
 from airmat.design.coverage import pattern_coverage
 from airmat.design.field import MattressField
-from airmat.design.fold_route import FoldRoute, fold_route, needs_folds
+from airmat.design.fold_route import FOLD_SIGMA_BAND, FoldRoute, fold_route, needs_folds
 from airmat.design.pattern import Pattern
 from airmat.design.string_lengths import string_pattern
 from airmat.design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
@@ -261,9 +261,11 @@ def design(target, mattress, *, calibration=None,
     weights = params.weights()
 
     def relax(k_a1: float, folds: bool = False) -> ApproxSurface:
+        # a folded Ŝ is judged by the fold band (the paper's built dome), the plain one by the default band
+        band = {"sigma_band": FOLD_SIGMA_BAND} if folds else {}
         return approximate_surface(target, mattress, spacing=params.spacing, **{**weights, "k_a1": k_a1},
                                    kappa_max=reach, progress=progress, face_metric=params.face_metric,
-                                   kappa_min=params.kappa_min, string_margin=params.margin, folds=folds)
+                                   kappa_min=params.kappa_min, string_margin=params.margin, folds=folds, **band)
 
     approx = relax(weights["k_a1"])
     timings = dict(approx.timings)

@@ -47,6 +47,7 @@ def test_the_dome_gathers_into_folds_within_the_papers_sigma_band(dome, plain_do
     lo, hi = FOLD_SIGMA_BAND
     assert lo <= rep.sigma["min"] and rep.sigma["max"] <= hi
     assert rep.constructible, rep.reasons
+    assert rep.sigma_band == FOLD_SIGMA_BAND                 # a folded Ŝ is judged by the fold band
     assert route.trials[0].ratio == 1.0 and route.trial.ratio > 1.0
     assert route.trial.k_a1 == pytest.approx(route.trial.ratio * DesignParams().weights()["k_a1"])
     # the first trial within the band is the one chosen: every earlier one is outside it
