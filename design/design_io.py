@@ -110,7 +110,7 @@ def document(result: DesignResult) -> dict:
     if a.relax is not None:   # exit code 3 of 'airmat design' when False (airmat.cli._exit)
         doc["relaxation"] = {"converged": bool(a.relax.converged), "iterations": int(a.relax.n_iter),
                              "message": str(a.relax.message)}
-    if result.fold_route is not None:    # Ŝ failed the σ test: the folded Ŝ searched (design.fold_route)
+    if result.fold_route is not None:    # Ŝ contracted below its σ band: the folded Ŝ searched (design.fold_route)
         doc["fold_route"] = result.fold_route.summary_mm()
     if result.refine is not None:   # lengths refined through the inflation (check.refine)
         doc["refine"] = dict(result.refine)

@@ -8,8 +8,8 @@ weights of U_A. This module searches those weights: it stiffens the edge lengths
 the closest-point pull k_A2) by growing factors until the relaxation, keeping the mattress's
 lengths, gathers the excess into a few folds and σ falls inside the fold band (the paper's dome:
 σ min 0.934). Ŝ then leaves S by the folds' height: that price, Ŝ's distance to S, is reported for
-every trial. On a saddle too strong for the membrane (K < 0: the rim would have to stretch) the
-same search gives a flatter Ŝ rather than folds, and says what it costs the same way.
+every trial. The route runs only where the plain Ŝ contracts edges below the band (folds gather
+excess length); a Ŝ that only stretches (a saddle whose rim would have to grow) keeps its verdict.
 
 Along a fold |κ| exceeds what a string makes (the paper's dome: 35 1/m); those vertices are the
 folds, where the mattress buckles by itself, and the constructibility verdict counts them as such
@@ -134,8 +134,12 @@ class FoldRoute:
 
 
 def needs_folds(report) -> bool:
-    """Ŝ fails the σ test (the case the fold route is for; a curvature beyond reach alone is not)."""
-    return report is not None and any(r.startswith("σ") for r in report.reasons)
+    """Ŝ contracts edges below the σ band: material a fold could gather (the case the fold route is for).
+
+    A Ŝ that only stretches beyond the band (a saddle: its rim would have to grow) or only exceeds
+    the reachable curvature is not: folds absorb excess length, they do not supply it.
+    """
+    return report is not None and report.sigma["min"] < report.sigma_band[0]
 
 
 def fold_vertices(kappa, kappa_max: float) -> np.ndarray:
@@ -162,7 +166,7 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     Parameters
     ----------
     approx : airmat.design.surface.ApproxSurface
-        The plain Ŝ (it failed the σ test).
+        The plain Ŝ (it contracts edges below the σ band).
     relax_with : callable
         ``relax_with(k_a1) -> ApproxSurface``: the same relaxation with another k_A1, its verdict
         judged by ``sigma_band`` and counting the curvature beyond reach as folds

@@ -88,7 +88,7 @@ class DesignParams:
         shorter where Ŝ compresses the face opposite the string). False: at the dash's
         span on Ω (the paper).
     folds : bool
-        When Ŝ fails the σ test, search stiffer U_A edge lengths for a Ŝ that gathers the
+        When Ŝ contracts edges below its σ band, search stiffer U_A edge lengths for a Ŝ that gathers the
         excess into drape-like folds (:mod:`airmat.design.fold_route`, the paper's §4 dome).
         False: keep the plain Ŝ and its verdict.
     """
@@ -166,7 +166,7 @@ class DesignResult(Summarized):
         dropped ones included: its inflations start from these strings' equilibrium and carry it
         on to the refined lengths (:func:`airmat.check.inflation_check.check`). None when not refined.
     fold_route : airmat.design.fold_route.FoldRoute or None
-        What the fold route tried and chose, when the plain Ŝ failed the σ test; else None.
+        What the fold route tried and chose, when the plain Ŝ contracted edges below its σ band; else None.
     """
 
     name: str

@@ -22,9 +22,9 @@ from airmat.synthetic.zoo import by_name
 FLOAT32_SLACK = 1e-5
 
 
-def _checked(name):
+def _checked(name, **params):
     e = by_name(name)
-    d = design(e, Mattress(*e.mattress), params=DesignParams(spacing=0.04), progress=False)
+    d = design(e, Mattress(*e.mattress), params=DesignParams(spacing=0.04, **params), progress=False)
     return d, check(d, resolution=0.04, envelope=False)
 
 
@@ -40,7 +40,8 @@ def cylinder():
 
 @pytest.fixture(scope="module")
 def dome():
-    return _checked("dome-r450")
+    """The plain Ŝ of a dome (no fold route): it strains the membrane beyond its band, and leaves S least."""
+    return _checked("dome-r450", folds=False)
 
 
 @pytest.mark.slow

@@ -3,7 +3,7 @@
 The promise for a constructible target (the zoo's issue): the open-loop lengths land within
 2.0 % of Ŝ's diagonal, and the design's solvers converge (``airmat design`` and ``airmat inflate``
 would exit 0). The designer's verdict must match the zoo's expectation, which comes from the
-geometry (airmat.synthetic.zoo); a target whose plain Ŝ fails the σ test must be made
+geometry (airmat.synthetic.zoo); a target whose plain Ŝ contracts below the σ band must be made
 constructible by the fold route (airmat.design.fold_route). 40 mm meshes keep it to seconds; the whole zoo at 20 mm, with
 the refinement's 1.0 %, is ``bench/bench_zoo.py`` (docs/benchmarks.md).
 """

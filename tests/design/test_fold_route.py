@@ -63,6 +63,15 @@ def test_the_dome_gathers_into_folds_within_the_papers_sigma_band(dome, plain_do
     assert route.trial.to_target_rms < 0.01
 
 
+def test_only_a_contracted_s_hat_takes_the_fold_route():
+    # folds gather excess length: a Ŝ that stretches beyond the band (a saddle) keeps its verdict
+    band = (0.9, 1.1)
+    assert needs_folds(SimpleNamespace(sigma={"min": 0.86, "max": 1.0}, sigma_band=band))
+    assert needs_folds(SimpleNamespace(sigma={"min": 0.86, "max": 1.25}, sigma_band=band))
+    assert not needs_folds(SimpleNamespace(sigma={"min": 0.95, "max": 1.11}, sigma_band=band))
+    assert not needs_folds(None)
+
+
 def test_the_fold_route_leaves_a_constructible_target_alone():
     target, mattress = preset("vault1")
     r = design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
