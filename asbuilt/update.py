@@ -11,7 +11,7 @@ Model, linearised at the prediction x_j = (θ_j, e_j), θ = (Δ, d):
 
     y ≈ A_n (R_θ (θ − θ_j) + D_e (e − e_j)) + G r + ε,
 
-- A_n (N, k): the face Jacobian (:func:`airmat.check.tolerance.face_jacobian`, the aligned
+- A_n (N, k): the face Jacobian (:func:`airmat.check.face_linearization.face_jacobian`, the aligned
   face's change per simulated rest length, rigid motions removed) projected on the
   predicted face's vertex normals;
 - R_θ = ∂rest/∂(Δ, d) (k, 2) and D_e = ∂rest_i/∂e_i (k,), central differences of
@@ -51,7 +51,7 @@ from scipy.linalg import block_diag
 
 from airmat.check.compare import deviation
 from airmat.check.string_world import world_strings
-from airmat.check.tolerance import face_jacobian
+from airmat.check.face_linearization import face_jacobian
 from airmat.design.curvature import vertex_normals
 from airmat.errors import InputError
 from airmat.inflation.model import Parameters

@@ -41,7 +41,7 @@ sys.path.insert(0, str(HERE))
 
 import numpy as np  # noqa: E402
 
-from airmat.check.tolerance import VALIDATION_SAMPLES  # noqa: E402
+from airmat.check.tolerance_validation import VALIDATION_SAMPLES  # noqa: E402
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 

@@ -2,16 +2,9 @@
 
 ``airmat check --samples K`` inflates K sampled string-length vectors. To first
 order the whole distribution is a matrix product away. At the median equilibrium
-the adjoint gives ``dx/dl* = -H⁻¹ ∂g/∂l*`` (:mod:`airmat.check.adjoint`: one
-factorization of the Hessian, one back-substitution per string); the named face at
-Ŝ's points is ``P x`` (:func:`airmat.check.refine_objective.face_operator`), turned into
-Ŝ's frame by the median run's alignment. The check aligns every run to Ŝ again
-(Kabsch), so a change of the face counts only up to a rigid motion: each column
-of the Jacobian loses its least-squares infinitesimal rigid motion at the aligned
-points (the linearized Kabsch; the term of the median's own residual is dropped,
-second order in the deviation over the size of Ŝ). So a change δl* of the
-simulated rest lengths moves the deviation vector of Ŝ's vertex v, e_v = aligned − Ŝ,
-to e_v + A_v δl*, with A of shape (N, 3, k).
+a change δl* of the simulated rest lengths moves the deviation vector of Ŝ's vertex v,
+e_v = aligned − Ŝ, to e_v + A_v δl*, A of shape (N, 3, k): the adjoint Jacobian of the aligned
+named face, rigid motions removed (:mod:`airmat.check.face_linearization`).
 
 With Σ the covariance of δl* (:mod:`airmat.check.length_covariance`: posterior of
 (Δ, d) through Equation 3, scatter σ, cut and tie), the Gaussian model
@@ -26,54 +19,8 @@ e ~ N(e₀ + m̂, A Σ Aᵀ) (m̂ the mean shift, below) gives, cheaply:
   ``(Aᵀ A Σ)_ii``, which sums to the total (a string's share can be negative when it is
   anti-correlated with the others in the posterior).
 
-The mean shift. The Gaussian is centred on the median run's face e₀, but a nonlinear response
-moves the mean: E[e] = e₀ + m with m = ½ tr(Σ ∂²e/∂l*²) + O(Σ²). The bands hardly notice (m is a
-few millimetres against bands of tens), the RMS does: RMS² = ⟨|e₀ + δe|²⟩ over the vertices holds
-2⟨e₀·m⟩, first order in m and scaled by e₀, while the RMS spread comes from 2⟨e₀·A δl*⟩ alone. Where
-e₀ dominates and the change is nearly orthogonal to it (the saddle at 20 mm: e₀ 21 mm RMS, changes
-11 mm, RMS spread 2.9 mm) the second-order shift moves the RMS median by a sizeable part of its spread
-(2⟨e₀·m⟩ = −28 mm², −0.6 mm of the first-order model's +0.9 mm offset from 64 full samples at the
-same lengths; the rest is a 9 % smaller variance, a third-order effect). The second derivative at the
-median does not give m: a central difference of the forces along the Jacobian's directions gives a
-step-dependent 13–18 mm RMS against the samples' 2 mm (the wrinkles' and the tension-only strings'
-energy is far from quadratic over one standard deviation). So m is sampled, without bias:
-
-Validation and mean shift: ``validate`` full samples in antithetic pairs, δl*_j and −δl*_j
-(:func:`airmat.check.monte_carlo.draw` plus the cut error; the Gaussian model is symmetric), each the
-equilibrium carried on from the median run's (Newton from the linear prediction, the mesh's model
-and symbolic factorization shared). The response splits into its odd part (A δl* plus third order)
-and its even part; within a pair the odd part cancels, so m̂, the mean change of the samples, is an
-unbiased estimate of m whose error is the even part's scatter alone. The model draws
-e = e₀ + m̂ + A δl*. Its checks:
-
-- ``spread_error`` = sqrt(Σ_s ‖δe_s − m̂‖² / Σ_s ‖A δl*_s‖²) − 1, the relative error of the spread
-  about the mean that the bands scale with. Paired on the same δl*, its sampling error is small
-  (0.025 with 2 pairs on the saddle). Above :data:`RELIABLE_ERROR` (15 %, the accuracy the bands
-  claim against a Monte-Carlo) the result says unreliable: a string that goes slack in half the
-  samples, a wrinkle that snaps, halve or double the spread.
-- with T, ``p_within_se``: the model's RMS density at T times the standard error of the shift's
-  effect on the RMS, from the scatter between the pairs. Above :data:`RELIABLE_P` (0.05) the result
-  says unreliable: the sampled shift leaves P(RMS <= T) open. That standard error is judged by its
-  upper 95 % confidence bound (:attr:`Validation.p_within_bound`): with p pairs the scatter has p − 1
-  degrees of freedom, and with the default 2 pairs the bound is 15.9 times the estimate, so P is
-  vouched for only where the shift barely moves the RMS; ``validate=8`` (4 pairs) brings the factor
-  to 2.9. On the saddle at 20 mm the estimate from 2 pairs reads 0.04 while P over 8 validation seeds
-  scatters by 0.11.
-- any sample that does not converge.
-
-The per-sample relative error ‖δe − A δl*‖ / ‖δe‖ is reported but is not the verdict: on 64 full
-samples of vault1 and the saddle it is 26–33 % while the bands agree within 5 %. It is not the
-alignment (the rigid part of the changes is 1 %), nor the solver (samples from the flat mattress and
-carried on agree to 1e-10), nor a few wrinkled vertices (the worst 10 % hold a quarter to a third of
-it): it is the genuine second-order response, a mean (13–19 % of the change) and zero-mean scatter.
-Scatter uncorrelated with A δl* adds only its square to the variance, so a 25 % error moves a band
-by 3 %.
-
-Cost: the equilibria stop at :data:`VALIDATION_TOL` (1e-3: Newton's last step from there moves the
-face by less than 1e-5 of its change, measured on the saddle at 20 mm); each takes 7–20 fine-mesh
-Newton iterations, where one inflation does most of its iterations on the coarse meshes of its
-continuation. A Monte-Carlo from the flat mattress (``--samples K``) may also sample other
-arrangements of the wrinkles, which no model about the median sees. SI units (m).
+The Gaussian is centred on e₀ + m̂, m̂ the nonlinear mean shift that full samples in antithetic pairs
+give, and checked against them (:mod:`airmat.check.tolerance_validation`). SI units (m).
 """
 
 from __future__ import annotations
@@ -84,125 +31,26 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from airmat.check.adjoint import equilibrium_jacobian, factor_equilibrium, rest_derivative
+from airmat.check.face_linearization import linearize
 from airmat.check.length_covariance import LengthCovariance, length_covariance
-from airmat.check.monte_carlo import draw
-from airmat.check.refine_objective import face_operator
-from airmat.errors import AirmatError, InputError
-from airmat.inflation.assembly import build_assembler
-from airmat.inflation.energy import block_pattern
-from airmat.inflation.model import Parameters, build_model, with_strings
-from airmat.inflation.solver import NewtonSystem, rigid_pins, solve
+from airmat.check.tolerance_validation import VALIDATION_SAMPLES, Validation, sample_validation
+from airmat.errors import InputError
+from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
-__all__ = ["LinearTolerance", "Validation", "Linearization", "tolerance", "applies", "summary_line", "linearize",
-           "face_jacobian", "remove_rigid", "align_faces", "antithetic", "pair_statistics", "rms_shift_se",
-           "density_at",
-           "VALIDATION_SAMPLES", "RELIABLE_ERROR", "RELIABLE_P", "MODEL_DRAWS"]
+__all__ = ["LinearTolerance", "tolerance", "applies", "summary_line", "density_at", "MODEL_DRAWS"]
 
 log = logging.getLogger(__name__)
 
-#: full samples (antithetic pairs) that give the mean shift and check the model, by default
-VALIDATION_SAMPLES = 4
-#: relative error of the predicted spread above which the result is unreliable (module docstring)
-RELIABLE_ERROR = 0.15
-#: standard error of P(RMS <= T) above which the result is unreliable (module docstring)
-RELIABLE_P = 0.05
-#: relative force residual of the validation's equilibria (:func:`airmat.inflation.solver.solve`): Newton's
-#: last step from 1e-3 moves the named face by less than 1e-5 of its change (module docstring)
-VALIDATION_TOL = 1e-3
 #: draws of the linear Gaussian model for the quantiles and the RMS (the 95 % quantile's relative
 #: sampling error is then about 2 %: sqrt(0.95 · 0.05 / 2000) / (2 φ(1.96) · 1.96))
 MODEL_DRAWS = 2000
+
 #: central 50 % and 95 % intervals of a normal distribution: half-widths in standard deviations
 Z_BANDS = (0.6744897501960817, 1.959963984540054)
+
 #: strings listed as mattering most
 TOP_STRINGS = 10
-
-
-@dataclass(frozen=True)
-class Validation:
-    """Full samples in antithetic pairs against the model for their own length changes.
-
-    Attributes
-    ----------
-    samples : int
-        Full samples (2 per pair: δl and −δl).
-    seed : int
-    relative_error : float
-        ‖actual − A δl‖ / ‖actual‖ of the deviation changes over every sample and vertex, the
-        first-order prediction's error sample by sample (reported, not the verdict: the mean shift
-        and zero-mean scatter make it up, which move the distribution far less; module docstring).
-    spread_error : float
-        sqrt(Σ ‖d_s − m̂‖² / Σ ‖A δl_s‖²) − 1: the relative error of the predicted spread about the mean,
-        what the bands scale with (nan without converged pairs).
-    shift : ndarray of shape (N, 3)
-        m̂: the mean change of the samples, the model's second-order mean shift (m).
-    rms_shift_se : float
-        Standard error of the shift's effect on the RMS, from the scatter between the pairs (m; nan
-        with fewer than 2 pairs).
-    rms_actual, rms_linear : ndarray of shape (samples,)
-        Each converged sample's RMS deviation, inflated and by the model e₀ + m̂ + A δl (m).
-    converged : ndarray of shape (samples,) of bool
-    p_within_se : float or None
-        Standard error of P(RMS <= T) from ``rms_shift_se`` (the model's RMS density at T times it);
-        None without T.
-    threshold : float
-        :data:`RELIABLE_ERROR`, the bound of ``|spread_error|``.
-    p_threshold : float
-        :data:`RELIABLE_P`, the bound of ``p_within_se``.
-    seconds : float
-        Wall time of the inflations.
-    """
-
-    samples: int
-    seed: int
-    relative_error: float
-    spread_error: float
-    shift: np.ndarray
-    rms_shift_se: float
-    rms_actual: np.ndarray
-    rms_linear: np.ndarray
-    converged: np.ndarray
-    p_within_se: float | None = None
-    threshold: float = RELIABLE_ERROR
-    p_threshold: float = RELIABLE_P
-    seconds: float = 0.0
-
-    @property
-    def reliable(self) -> bool:
-        """Every sample converged, the spread within the threshold and P(RMS <= T) known within ``p_threshold``."""
-        p_ok = self.p_within_se is None or bool(self.p_within_bound <= self.p_threshold)
-        return bool(self.samples > 0 and self.converged.all() and abs(self.spread_error) <= self.threshold and p_ok)
-
-    @property
-    def p_within_bound(self) -> float:
-        """Upper 95 % confidence bound of ``p_within_se`` (nan without T or with fewer than 2 pairs).
-
-        The standard error comes from the scatter of p pairs, p − 1 degrees of freedom: its bound is
-        ``p_within_se · sqrt((p − 1) / χ²₀.₀₅(p − 1))``, 15.9 times the estimate with 2 pairs, 2.9 with 4,
-        so that a lucky small scatter of few pairs does not vouch for P.
-        """
-        from scipy.stats import chi2
-
-        dof = self.samples // 2 - 1
-        if self.p_within_se is None or dof < 1 or not np.isfinite(self.p_within_se):
-            return float("nan")
-        return float(self.p_within_se * np.sqrt(dof / chi2.ppf(0.05, dof)))
-
-    @property
-    def why(self) -> str:
-        """What makes it unreliable ("" when reliable)."""
-        if not self.converged.all():
-            return f"{int((~self.converged).sum())} of {self.samples} full samples did not converge"
-        if not abs(self.spread_error) <= self.threshold:
-            return (f"the spread of {self.samples} full samples is {100 * self.spread_error:+.0f} % off the linear "
-                    f"prediction (more than {100 * self.threshold:.0f} %)")
-        if self.p_within_se is not None and not self.p_within_bound <= self.p_threshold:
-            return (f"the nonlinear mean shift leaves P(RMS <= T) uncertain: its standard error is "
-                    f"{self.p_within_se:.2f}, up to {self.p_within_bound:.2f} at 95 % confidence from "
-                    f"{self.samples // 2} pairs of full samples (more than {self.p_threshold:.2f})")
-        return ""
 
 
 @dataclass(frozen=True, repr=False)
@@ -371,230 +219,6 @@ def applies(design, cut_tolerance: float = 0.0) -> str | None:
     return None
 
 
-def remove_rigid(points: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """Each column's displacement field less its least-squares infinitesimal rigid motion.
-
-    Parameters
-    ----------
-    points : ndarray of shape (N, 3)
-        Where the displacements sit (m).
-    columns : ndarray of shape (N, 3, k)
-        Displacement fields (any unit).
-
-    Returns
-    -------
-    ndarray of shape (N, 3, k)
-        Orthogonal to every translation and rotation about the points' centroid.
-
-    Examples
-    --------
-    >>> p = np.random.default_rng(0).normal(size=(10, 3))
-    >>> spin = np.cross([0.0, 0.0, 1.0], p - p.mean(axis=0)) + [1.0, 2.0, 3.0]
-    >>> bool(np.allclose(remove_rigid(p, spin[:, :, None]), 0))
-    True
-    """
-    p = np.asarray(points, float) - np.mean(points, axis=0)
-    n = len(p)
-    basis = np.zeros((n, 3, 6))
-    basis[:, :, :3] = np.eye(3)
-    for c in range(3):
-        basis[:, :, 3 + c] = np.cross(np.eye(3)[c], p)
-    g = basis.reshape(3 * n, 6)
-    a = np.asarray(columns, float).reshape(3 * n, -1)
-    coef, *_ = np.linalg.lstsq(g, a, rcond=None)
-    return (a - g @ coef).reshape(columns.shape)
-
-
-@dataclass(frozen=True)
-class Linearization:
-    """The median equilibrium's model, factored once: what the Jacobian and the validation solves share.
-
-    Attributes
-    ----------
-    model : airmat.inflation.energy.Model
-        U_B with the strings at their median rest lengths.
-    assembler : airmat.inflation.assembly.Assembler
-        The sparse pattern with the solver's pinned DOFs removed.
-    fixed : ndarray of shape (6,)
-        The pinned flat DOF indices (:func:`airmat.inflation.solver.rigid_pins`).
-    dx : ndarray of shape (3 n, k)
-        dx/dl* of every DOF (m/m).
-    face : ndarray of shape (N, 3, k)
-        A, the aligned named face's change per rest length, rigid motions removed (m/m).
-    operator : scipy.sparse.csr_matrix of shape (N, n)
-        The named face at Ŝ's points from the vertex positions (:func:`face_operator`).
-    """
-
-    model: object
-    assembler: object
-    fixed: np.ndarray
-    dx: np.ndarray
-    face: np.ndarray
-    operator: object
-
-
-def linearize(design, run, strings, surface: str, params: Parameters = Parameters()) -> Linearization:
-    """The adjoint linearization of the named face at the median run (see :class:`Linearization`).
-
-    Parameters
-    ----------
-    design : airmat.design.pipeline.DesignResult
-    run : airmat.check.inflation_check.CheckRun
-        The median run: its equilibrium and its alignment to Ŝ.
-    strings : airmat.inflation.strings.StringSet
-        The strings it was inflated with (rest lengths l*, m).
-    surface : str
-        The named face.
-    params : Parameters
-
-    Returns
-    -------
-    Linearization
-    """
-    inf = run.inflation
-    mesh, x = inf.mesh, inf.xyz
-    model = build_model(mesh, strings, params)
-    fixed = rigid_pins(mesh.uv, mesh.top)
-    asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
-    factor = factor_equilibrium(model, x, asm)
-    dx = equilibrium_jacobian(factor, rest_derivative(model.springs[-1], x, mesh.thickness))   # (3n, k)
-    k = len(strings.rest)
-    p = face_operator(mesh, design.approx.uv, surface)
-    face = (p @ dx.reshape(len(x), 3 * k)).reshape(-1, 3, k)
-    face = np.einsum("ij,njk->nik", run.deviation.rotation, face)
-    return Linearization(model, asm, fixed, dx, remove_rigid(run.deviation.aligned, face), p)
-
-
-def face_jacobian(design, run, strings, surface: str, params: Parameters = Parameters()) -> np.ndarray:
-    """A: the aligned named face's change per simulated rest length, rigid motions removed (Ŝ's frame),
-    shape (N, 3, k) at Ŝ's N vertices (m/m): the ``face`` of :func:`linearize` (same parameters)."""
-    return linearize(design, run, strings, surface, params).face
-
-
-def align_faces(faces: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Each face rigidly aligned onto the target (Kabsch, as :func:`airmat.check.compare.deviation`).
-
-    Parameters
-    ----------
-    faces : ndarray of shape (S, N, 3)
-        Points corresponding to the target's (m).
-    target : ndarray of shape (N, 3)
-        (m).
-
-    Returns
-    -------
-    ndarray of shape (S, N, 3)
-        R_s (face_s − its centroid) + the target's centroid, R_s the proper rotation of least squares.
-
-    Examples
-    --------
-    >>> t = np.random.default_rng(1).normal(size=(6, 3))
-    >>> c, s = np.cos(0.3), np.sin(0.3)
-    >>> moved = t @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]).T + 2.0
-    >>> bool(np.allclose(align_faces(moved[None], t)[0], t))
-    True
-    """
-    f = np.asarray(faces, float)
-    t = np.asarray(target, float)
-    fc, tc = f - f.mean(axis=1, keepdims=True), t - t.mean(axis=0)
-    u, _, vt = np.linalg.svd(np.einsum("snc,nd->scd", fc, tc))            # H = U S Vᵀ, R = V D Uᵀ
-    sign = np.ones((len(f), 3))
-    sign[:, 2] = np.sign(np.linalg.det(u) * np.linalg.det(vt))
-    rot = np.einsum("sji,sj,skj->sik", vt, sign, u)
-    return np.einsum("sik,snk->sni", rot, fc) + t.mean(axis=0)
-
-
-def antithetic(delta: np.ndarray) -> np.ndarray:
-    """Each change followed by its negative: rows δ₁, −δ₁, δ₂, −δ₂, ...
-
-    Parameters
-    ----------
-    delta : ndarray of shape (p, k)
-
-    Returns
-    -------
-    ndarray of shape (2 p, k)
-
-    Examples
-    --------
-    >>> antithetic(np.array([[1.0, 2.0]])).tolist()
-    [[1.0, 2.0], [-1.0, -2.0]]
-    """
-    d = np.asarray(delta, float)
-    return np.stack([d, -d], axis=1).reshape(-1, d.shape[1])
-
-
-def pair_statistics(changes: np.ndarray, predicted: np.ndarray) -> tuple:
-    """The antithetic pairs' mean shift and the relative error of the predicted spread.
-
-    Parameters
-    ----------
-    changes : ndarray of shape (2 p, N, 3)
-        d_s = e(δ_s) − e₀ of full samples at δ₁, −δ₁, δ₂, −δ₂, ... (m).
-    predicted : ndarray of shape (2 p, N, 3)
-        A δ_s (m).
-
-    Returns
-    -------
-    shift : ndarray of shape (N, 3)
-        m̂ = the mean of d_s: the odd part of the response cancels in each pair, so m̂ is the
-        mean of the even parts q_j = (d(δ_j) + d(−δ_j)) / 2 (m).
-    spread_error : float
-        sqrt(Σ_s ‖d_s − m̂‖² / Σ_s ‖A δ_s‖²) − 1: how far the spread about the mean is off the
-        linear prediction's, relatively (nan without spread).
-    pairs_shift : ndarray of shape (p, N, 3)
-        q_j − e₀'s change, each pair's own estimate of the shift (m).
-
-    Examples
-    --------
-    >>> p = np.array([[[1.0, 0, 0]], [[-1.0, 0, 0]]])
-    >>> shift, err, _ = pair_statistics(p + [0, 0, 0.5], p)     # linear plus a constant: exact spread
-    >>> shift.tolist(), err
-    ([[0.0, 0.0, 0.5]], 0.0)
-    """
-    d = np.asarray(changes, float)
-    pairs = d.reshape(-1, 2, *d.shape[1:]).mean(axis=1)
-    shift = pairs.mean(axis=0)
-    den = float(np.sum(np.asarray(predicted, float) ** 2))
-    err = float(np.sqrt(np.sum((d - shift) ** 2) / den) - 1.0) if den > 0 else float("nan")
-    return shift, err, pairs
-
-
-def rms_shift_se(base: np.ndarray, pairs: np.ndarray, spread: float) -> float:
-    """Standard error of the mean shift's effect on the RMS, from the scatter of the pairs' own estimates.
-
-    Pair j alone moves the RMS of a draw of typical spread by
-    Δ_j = sqrt(⟨|e₀ + q_j|²⟩ + v) − sqrt(⟨|e₀|²⟩ + v), v the mean squared change of the model;
-    the standard error of their mean is sd(Δ_j) / sqrt(p).
-
-    Parameters
-    ----------
-    base : ndarray of shape (N, 3)
-        e₀ (m).
-    pairs : ndarray of shape (p, N, 3)
-        Each pair's shift estimate (:func:`pair_statistics`) (m).
-    spread : float
-        v = tr(A Σ Aᵀ) / N (m²).
-
-    Returns
-    -------
-    float
-        (m); nan with fewer than 2 pairs.
-
-    Examples
-    --------
-    >>> e0 = np.zeros((4, 3))
-    >>> round(rms_shift_se(e0, np.stack([e0 + [0, 0, 1.0], e0 + [0, 0, 3.0]]), 0.0), 6)
-    1.0
-    """
-    if len(pairs) < 2:
-        return float("nan")
-    e0 = np.asarray(base, float)
-    moved = np.sqrt(np.mean(np.sum((e0 + pairs) ** 2, axis=2), axis=1) + spread)
-    at = np.sqrt(np.mean(np.sum(e0 ** 2, axis=1)) + spread)
-    return float(np.std(moved - at, ddof=1) / np.sqrt(len(pairs)))
-
-
 def density_at(x: np.ndarray, t: float) -> float:
     """Density of the samples ``x`` at ``t``: a Gaussian kernel of Silverman's bandwidth (1/unit of x).
 
@@ -623,76 +247,6 @@ def _model_draws(base, a, cov, n: int, seed: int, chunk: int = 500) -> tuple:
         e = e0 + (z[s:s + chunk] @ root.T) @ flat.T                        # (chunk, 3N)
         dist[s:s + chunk] = np.linalg.norm(e.reshape(len(e), -1, 3), axis=2)
     return np.quantile(dist, [0.5, 0.95], axis=0), np.sqrt(np.mean(dist ** 2, axis=1))
-
-
-def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarray, params) -> tuple:
-    """Equilibria at l* ± δ_j from the median ``x0`` (Newton, no ramp): positions (2 p, n, 3), converged (2 p,).
-
-    The mesh's model, sparse pattern and symbolic factorization are shared; each run starts from its
-    linear prediction x₀ ± J δ (from x₀ when that start stretches an edge past the solver's sanity
-    bound) with the Newton shift's hint reset, and stops at :data:`VALIDATION_TOL`.
-    """
-    n = len(x0)
-    system = NewtonSystem(groups=lin.assembler.free // 3)
-    hint = system.hint_rel
-    kw = dict(fixed_dofs=lin.fixed, tol=VALIDATION_TOL, max_iter=200, max_move=0.5 * float(np.mean(mesh.spacing)),
-              assembler=lin.assembler, linear_system=system, desc="tolerance check", warn=False)
-
-    def equilibrium(rest, step):
-        model = with_strings(lin.model, mesh, replace(strings, rest=rest), params)
-        for start in (x0 + step, x0):      # a prediction that tears an edge (a wrinkle's rotation): from x₀
-            system.hint_rel = hint
-            try:
-                r = solve(model, start, **kw)
-            except AirmatError:
-                continue
-            return r.xyz, bool(r.converged)
-        return np.full_like(x0, np.nan), False
-
-    out, ok = np.empty((2 * len(delta), n, 3)), np.zeros(2 * len(delta), bool)
-    for j, d in enumerate(delta):
-        step = (lin.dx @ d).reshape(n, 3)
-        out[2 * j], ok[2 * j] = equilibrium(strings.rest + d, step)
-        out[2 * j + 1], ok[2 * j + 1] = equilibrium(strings.rest - d, -step)
-    return out, ok
-
-
-def _validate(design, check_run, strings, lin: Linearization, n: int, seed: int, cov: LengthCovariance,
-              params, variance: float) -> Validation:
-    """``n`` full samples in antithetic pairs, carried on from the median equilibrium, against the model
-    (``variance``: the model's total, Σ_v tr(A_v Σ A_vᵀ), m²)."""
-    lengths, med = check_run.lengths, check_run.runs["median"]
-    pairs = n // 2
-    dr = draw(design, pairs, seed, lengths=lengths)
-    t = cov.cut_tolerance
-    rng = np.random.default_rng([seed, 1])
-    cut = (rng.uniform(-t, t, dr.length.shape) if cov.cut_distribution == "uniform"
-           else rng.normal(0.0, t, dr.length.shape)) if t > 0 else 0.0
-    delta = lengths.to_simulated(np.maximum(dr.length + cut, 0.0)) - strings.rest          # (p, k)
-    started = time.perf_counter()
-    x, converged = _carry_on(lin, med.inflation.xyz, med.inflation.mesh, strings, delta, params)
-    approx = design.approx
-    faces = (lin.operator @ x.transpose(1, 0, 2).reshape(x.shape[1], -1)).reshape(-1, len(x), 3).transpose(1, 0, 2)
-    seconds = time.perf_counter() - started
-    e0 = med.deviation.aligned - approx.xyz
-    both = converged.reshape(-1, 2).all(axis=1).repeat(2)
-    actual = align_faces(faces[both], approx.xyz) - med.deviation.aligned
-    predicted = np.einsum("nck,sk->snc", lin.face, antithetic(delta)[both])
-    if len(actual) == 0:
-        nan = float("nan")
-        return Validation(samples=2 * pairs, seed=int(seed), relative_error=nan, spread_error=nan,
-                          shift=np.zeros_like(e0), rms_shift_se=nan, rms_actual=np.zeros(0), rms_linear=np.zeros(0),
-                          converged=converged, seconds=seconds)
-    shift, spread_err, per_pair = pair_statistics(actual, predicted)
-    norm = float(np.linalg.norm(actual))
-    err = float(np.linalg.norm(actual - predicted)) / norm if norm > 0 else float("nan")
-    v = variance / len(e0)
-
-    def rms(e):
-        return np.sqrt(np.mean(np.sum((e0 + e) ** 2, axis=2), axis=1))
-    return Validation(samples=2 * pairs, seed=int(seed), relative_error=err, spread_error=spread_err, shift=shift,
-                      rms_shift_se=rms_shift_se(e0, per_pair, v), rms_actual=rms(actual),
-                      rms_linear=rms(shift + predicted), converged=converged, seconds=seconds)
 
 
 def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters = Parameters(),
@@ -762,7 +316,7 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     share = contrib / contrib.sum() if contrib.sum() > 0 else np.zeros_like(contrib)
     seconds = time.perf_counter() - started
     spread = bool(np.any(total))
-    val = (_validate(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()))
+    val = (sample_validation(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()))
            if validate and spread else None)
     started = time.perf_counter()
     shift = val.shift if val is not None else np.zeros_like(base)

@@ -91,7 +91,7 @@ def test_pulled_to_the_design_the_correction_undoes_the_world(undone, small_upda
 
 def test_the_verification_inflation_lands_on_the_design_s_prediction(undone, small_world):
     """Undone, the updated world's inflation is the design's median run again (the same rest lengths,
-    the same path), to the linear step's accuracy (airmat.check.tolerance.RELIABLE_ERROR: 25 % of the change)."""
+    the same path), to the linear step's accuracy (airmat.check.tolerance_validation.RELIABLE_ERROR: 25 % of the change)."""
     c, med = undone, small_world.check.runs["median"]
     assert c.rms_verified is not None
     assert abs(c.rms_verified - med.deviation.rms) <= 0.25 * abs(c.rms_before - med.deviation.rms)

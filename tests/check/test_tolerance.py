@@ -1,4 +1,4 @@
-"""airmat.check.tolerance: the linearized tolerance against re-inflations and a Monte-Carlo of the small case."""
+"""airmat.check.tolerance (and its face_linearization, tolerance_validation): the linearized tolerance against re-inflations and a Monte-Carlo of the small case."""
 
 import sys
 from dataclasses import replace
@@ -15,8 +15,10 @@ from airmat.check.compare import deviation  # noqa: E402
 from airmat.check.inflation_check import check, design_strings  # noqa: E402
 from airmat.check.length_covariance import length_covariance  # noqa: E402
 from airmat.check.monte_carlo import draw  # noqa: E402
-from airmat.check.tolerance import (RELIABLE_ERROR, Validation, align_faces, antithetic, density_at, pair_statistics,  # noqa: E402
-                                    rms_shift_se, tolerance)
+from airmat.check.face_linearization import align_faces  # noqa: E402
+from airmat.check.tolerance import density_at, tolerance  # noqa: E402
+from airmat.check.tolerance_validation import (RELIABLE_ERROR, Validation, antithetic, pair_statistics,  # noqa: E402
+                                               rms_shift_se)
 from airmat.errors import InputError  # noqa: E402
 from airmat.inflation.simulate import inflate_from  # noqa: E402
 

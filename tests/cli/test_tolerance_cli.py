@@ -10,7 +10,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "check"))
 from refine_case import OFF, TRUE_SIM, small_design  # noqa: E402
 
-from airmat.check.tolerance import VALIDATION_SAMPLES  # noqa: E402
+from airmat.check.tolerance_validation import VALIDATION_SAMPLES  # noqa: E402
 from airmat.cli import main  # noqa: E402
 from airmat.design.design_io import write_design  # noqa: E402
 
