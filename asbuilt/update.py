@@ -1,11 +1,8 @@
 """The calibration posterior and each string's length error, updated with a scan of the built mattress.
 
-Data: registered scan points in Ŝ's frame (m). Each point is projected onto the
-predicted aligned named face (Ŝ's triangulation at the prediction's aligned
-vertices); its signed distance along the face normal is spread to the three
-corners by its barycentric weights, which gives each covered Ŝ vertex v an
-observed normal displacement y_v (the weighted mean) and a weight W_v (points'
-worth). Points beyond the rim are dropped.
+Data: registered scan points in Ŝ's frame (m), reduced to an observed normal displacement y_v
+and a weight W_v (points' worth) at each covered vertex v of Ŝ on the predicted aligned named face
+(:mod:`airmat.asbuilt.scan_data`).
 
 Model, linearised at the prediction x_j = (θ_j, e_j), θ = (Δ, d):
 
@@ -49,6 +46,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.linalg import block_diag
 
+from airmat.asbuilt.scan_data import MAX_POINTS, ScanData, scan_data, scan_subset
 from airmat.check.compare import deviation
 from airmat.check.string_world import world_strings
 from airmat.check.face_linearization import face_jacobian
@@ -57,7 +55,7 @@ from airmat.errors import InputError
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
-__all__ = ["ScanData", "Prediction", "Update", "scan_data", "update", "known_face_update", "world_slopes",
+__all__ = ["Prediction", "Update", "update", "known_face_update", "world_slopes",
            "error_slope",
            "MAX_RELINEARISATIONS", "FLAG_SE"]
 
@@ -70,12 +68,6 @@ log = logging.getLogger(__name__)
 MAX_RELINEARISATIONS = 5
 #: a string's tie looks wrong when |ê| exceeds this many standard errors (and the cut tolerance)
 FLAG_SE = 3.0
-#: a vertex is covered when the points spread onto it are worth at least this many points
-MIN_WEIGHT = 1.0
-#: scan points used at most (a seeded random subset beyond): about 120 per vertex of vault1's Ŝ, whose
-#: mean normal distance then has a scan noise of 0.05 mm for 0.5 mm per point, below the model's error;
-#: projecting a million points costs 2.9 s per linearisation, 200 000 a fifth of that
-MAX_POINTS = 200_000
 #: converged when no parameter moved by more than this fraction of its posterior standard deviation (a
 #: shift of a quarter standard deviation moves a central 95 % interval's coverage by under 1 %)
 STEP_TOL = 0.25
@@ -95,32 +87,6 @@ PRIOR_DOF = 4.0
 TAU_FLOOR = 1e-6
 #: ∂rest/∂e below this: the string is clipped by Equation 3 (slack, or at its largest curvature)
 CLIPPED_SLOPE = 1e-6
-
-
-@dataclass(frozen=True)
-class ScanData:
-    """Registered scan points reduced to Ŝ's vertices (m).
-
-    Attributes
-    ----------
-    observed : ndarray of shape (N,)
-        Weighted mean signed normal distance of the points around each vertex from the
-        predicted face (0 where not covered) (m).
-    weight : ndarray of shape (N,)
-        Points' worth spread onto each vertex (sum of barycentric weights).
-    covered : ndarray of shape (N,) of bool
-    point_sd : float
-        The points' scatter about their vertex's mean (m).
-    n_points, n_used : int
-        Points given, points used (not beyond the rim, finite).
-    """
-
-    observed: np.ndarray
-    weight: np.ndarray
-    covered: np.ndarray
-    point_sd: float
-    n_points: int
-    n_used: int
 
 
 @dataclass(frozen=True)
@@ -245,50 +211,6 @@ class Update(Summarized):
         return np.stack([self.prior_mean - half, self.prior_mean + half])
 
 
-def scan_data(points, face_xyz, faces) -> ScanData:
-    """The registered scan points as normal displacements at the face's vertices (see the module docstring).
-
-    Parameters
-    ----------
-    points : ndarray of shape (M, 3)
-        Scan points in Ŝ's frame (m).
-    face_xyz : ndarray of shape (N, 3)
-        The predicted aligned face at Ŝ's vertices (m).
-    faces : ndarray of shape (F, 3)
-        Ŝ's triangles.
-
-    Returns
-    -------
-    ScanData
-    """
-    from trimesh.triangles import points_to_barycentric
-
-    from airmat.design.closest_point import MeshProjector
-
-    points = np.asarray(points, float)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise InputError(f"scan points: expected an array of shape (M, 3), got {points.shape}")
-    n = len(face_xyz)
-    keep = np.all(np.isfinite(points), axis=1)
-    near = MeshProjector(face_xyz, faces).closest(points[keep])
-    ok = ~near.on_rim & np.all(np.isfinite(near.points), axis=1)
-    p, cp, f = points[keep][ok], near.points[ok], near.face[ok]
-    tri = face_xyz[faces[f]]
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    r = np.einsum("ij,ij->i", p - cp, normal)
-    w = np.clip(points_to_barycentric(tri, cp), 0.0, 1.0)
-    idx, w = faces[f].ravel(), w.ravel()
-    weight = np.bincount(idx, w, minlength=n)
-    total = np.bincount(idx, w * np.repeat(r, 3), minlength=n)
-    observed = np.divide(total, weight, out=np.zeros(n), where=weight > 0)
-    scatter = np.bincount(idx, w * (np.repeat(r, 3) - observed[idx]) ** 2, minlength=n)
-    point_sd = float(np.sqrt(scatter.sum() / max(weight.sum(), 1e-300)))
-    covered = weight >= MIN_WEIGHT
-    return ScanData(observed=np.where(covered, observed, 0.0), weight=weight, covered=covered,
-                    point_sd=point_sd, n_points=len(points), n_used=int(ok.sum()))
-
-
 def world_slopes(design, theta, error, *, strings=None) -> tuple:
     """∂rest/∂(Δ, d) (k, 2), ∂rest_i/∂e_i (k,) and ∂rest_i/∂z_i (k,) at one world (central differences).
 
@@ -349,17 +271,6 @@ def _prior(design, cut_tolerance: float, cut_distribution: str):
         ratio = np.divide(d_z, d_e, out=np.zeros(k), where=np.abs(d_e) > 1e-9)
         var = var + ratio ** 2 * float(np.mean(np.asarray(cal.sigma, float) ** 2))
     return mean, cov, np.sqrt(var)
-
-
-def _subset(points, max_points, seed) -> np.ndarray:
-    """The scan points (M, 3) checked, and at most ``max_points`` of them (a seeded random subset, in order)."""
-    points = np.asarray(points, float)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise InputError(f"scan points: expected an array of shape (M, 3), got {points.shape}")
-    if max_points is not None and len(points) > max_points:
-        keep = np.random.default_rng([seed, 2]).choice(len(points), size=int(max_points), replace=False)
-        points = points[np.sort(keep)]
-    return points
 
 
 def _rigid_columns(xyz: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -648,7 +559,7 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         raise InputError(f"max_relinearisations must be 0 .. {MAX_RELINEARISATIONS}, got {max_relinearisations}")
     if not (np.isfinite(cut_tolerance) and cut_tolerance > 0):
         raise InputError(f"the cut tolerance must be > 0 m, got {cut_tolerance!r}")
-    points = _subset(points, max_points, seed)
+    points = scan_subset(points, max_points, seed)
     if check is None:
         check = run_check(design, resolution=resolution, params=params, envelope=False)
     surface, med, faces = check.surface, check.runs["median"], design.approx.faces

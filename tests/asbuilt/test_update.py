@@ -13,7 +13,8 @@ import sys
 import numpy as np
 import pytest
 
-from airmat.asbuilt.update import known_face_update, scan_data, update, world_slopes
+from airmat.asbuilt.scan_data import scan_data
+from airmat.asbuilt.update import known_face_update, update, world_slopes
 from airmat.asbuilt.updated_calibration import updated_calibration
 from airmat.check.compare import deviation
 from airmat.check.inflation_check import check, design_strings
