@@ -2,8 +2,8 @@
 
 Small mattress (830 × 740 mm): ``vault1`` (a vault with a sharper crown,
 nearly developable), ``saddle`` (vault across, sag along: curvatures of
-opposite signs), ``dome`` (an ellipsoidal dome, strongly double-curved: its
-Ŝ cannot be made everywhere). Large mattress (2600 × 1600 mm): ``vault2``
+opposite signs), ``dome`` (an ellipsoidal dome, strongly double-curved: its plain
+Ŝ cannot be made, the designer folds it, :mod:`airmat.design.fold_route`). Large mattress (2600 × 1600 mm): ``vault2``
 (a wide vault, slightly double-curved), ``roof`` (freeform: a vault whose
 crown sharpens and flattens along its length, over a wavy ridge).
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 DESCRIPTIONS = {
     "vault1": "a vault with a sharper crown, nearly developable",
     "saddle": "vault across, sag along: curvatures of opposite signs",
-    "dome": "an ellipsoidal dome, strongly double-curved: its Ŝ cannot be made everywhere",
+    "dome": "an ellipsoidal dome, strongly double-curved: made with drape-like folds",
     "vault2": "a wide vault, slightly double-curved",
     "roof": "freeform: a vault whose crown sharpens and flattens along its length, over a wavy ridge",
 }
