@@ -11,6 +11,11 @@ Model, linearised at the prediction x_j = (θ_j, e_j), θ = (Δ, d):
 - A_n (N, k): the face Jacobian (:func:`airmat.check.face_linearization.face_jacobian`, the aligned
   face's change per simulated rest length, rigid motions removed) projected on the
   predicted face's vertex normals;
+- strings are tension-only: string i acts through A_n only up to u_i, the lengthening at which its
+  linearised tension vanishes (:func:`slack_reach`), so its term is A_n,i min(δl*_i, u_i). A string the
+  world leaves slack is taut in the design's median run; a two-sided linear model would bring it to the
+  onset of tension and hold its rest length there as if the scan had measured it (on the zoo's hypar-0.3,
+  four such strings pinned 0.7 to 7.5 mm short and (Δ, d) 4.9 and 4.2 posterior sd from the world);
 - R_θ = ∂rest/∂(Δ, d) (k, 2) and D_e = ∂rest_i/∂e_i (k,), central differences of
   :func:`airmat.check.string_world.world_strings`, the one chain from a world to the rest lengths;
 - e (k,): each string's effective length error (cut and tie, and its own curvature scatter
@@ -49,14 +54,15 @@ from scipy.linalg import block_diag
 from airmat.asbuilt.scan_data import MAX_POINTS, ScanData, scan_data, scan_subset
 from airmat.check.compare import deviation
 from airmat.check.string_world import world_strings
-from airmat.check.face_linearization import face_jacobian
+from airmat.check.face_linearization import linearize
 from airmat.design.curvature import vertex_normals
 from airmat.errors import InputError
+from airmat.inflation.energy import spring_profile
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
 __all__ = ["Prediction", "Update", "update", "known_face_update", "world_slopes",
-           "error_slope",
+           "error_slope", "slack_reach",
            "MAX_RELINEARISATIONS", "FLAG_SE"]
 
 log = logging.getLogger(__name__)
@@ -106,6 +112,9 @@ class Prediction:
         Its named face aligned to Ŝ.
     jacobian : ndarray of shape (N, 3, k)
         A at that equilibrium (m/m).
+    reach, give : ndarray of shape (k,), (k, k), or None
+        The strings' tensions to first order (:func:`slack_reach`) (m, m/m). None: every string
+        taut whatever its length.
     """
 
     theta: np.ndarray
@@ -114,6 +123,8 @@ class Prediction:
     inflation: object
     deviation: object
     jacobian: np.ndarray
+    reach: np.ndarray | None = None
+    give: np.ndarray | None = None
 
 
 @dataclass(frozen=True, repr=False)
@@ -273,6 +284,40 @@ def _prior(design, cut_tolerance: float, cut_distribution: str):
     return mean, cov, np.sqrt(var)
 
 
+def slack_reach(linearization, x: np.ndarray) -> tuple:
+    """How the strings' tensions vanish under changes of the rest lengths, to first order (m, m/m).
+
+    A string is tension-only (:func:`airmat.inflation.energy.spring_profile`). Its force f_i, of slope
+    f_i' in its stretch, vanishes where the stretch has fallen by r_i = f_i / f_i'; a change δ of the
+    rest lengths changes the stretch by ((C − I) δ)_i, C_ij = ∂(end distance of i)/∂l*_j the face's
+    give at the equilibrium (the adjoint's columns). So string i is slack once
+    r_i + ((C − I) δ)_i <= 0, and it then no longer moves the face, however long.
+
+    Parameters
+    ----------
+    linearization : airmat.check.face_linearization.Linearization
+        At the equilibrium ``x``; its last spring group is the external strings.
+    x : ndarray of shape (n, 3)
+        The equilibrium's vertex positions (m).
+
+    Returns
+    -------
+    reach : ndarray of shape (k,)
+        r_i >= 0 (m); 0 for a string slack at ``x``.
+    give : ndarray of shape (k, k)
+        C (m/m).
+    """
+    s = linearization.model.springs[-1]
+    r = np.einsum("sk,skc->sc", s.coef, x[s.idx])
+    length = np.linalg.norm(r, axis=1)
+    rhat = r / np.maximum(length, 1e-300)[:, None]
+    _, f, df = spring_profile(length - s.rest, s.smooth, s.compression)
+    k = len(length)
+    dx = linearization.dx.reshape(len(x), 3, k)
+    give = np.einsum("sc,sj,sjcq->sq", rhat, s.coef, dx[s.idx])
+    return np.where((f > 0) & (df > 0), f / np.maximum(df, 1e-300), 0.0), give
+
+
 def _rigid_columns(xyz: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """(N, 6): the normal component of the three translations and the three rotations about the centroid."""
     p = xyz - xyz.mean(axis=0)
@@ -306,6 +351,31 @@ class _Linear:
     a_n: np.ndarray
     rigid: np.ndarray
     rest: np.ndarray
+    reach: np.ndarray | None = None
+    give: np.ndarray | None = None
+
+    def effective(self, rest: np.ndarray) -> tuple:
+        """The change of the rest lengths the face feels at ``rest``, and its derivative (m, m/m).
+
+        δ = rest − rest_j. A string taut in the linear model (:func:`slack_reach`) acts with its
+        own δ_i; a slack one with the change that leaves its tension at 0, the others' fixed:
+        δ_i' = (r_i + Σ_{j≠i} C_ij δ_j) / (1 − C_ii), less than δ_i.
+
+        Returns
+        -------
+        tuple
+            δ' (k,) and ∂δ'/∂rest (k, k).
+        """
+        delta = rest - self.rest
+        if self.reach is None:
+            return delta, np.eye(len(delta))
+        c = self.give
+        own = np.maximum(1.0 - np.diag(c), 1e-6)
+        off = c - np.diag(np.diag(c))
+        zero = (self.reach + off @ delta) / own
+        slack = zero < delta
+        d = np.where(slack[:, None], off / own[:, None], np.eye(len(delta)))
+        return np.where(slack, zero, delta), d
 
 
 def _linearisation(point, faces, points) -> tuple:
@@ -323,7 +393,8 @@ def _linearisation(point, faces, points) -> tuple:
     c = data.covered
     a_n = np.einsum("nc,nck->nk", normal[c], point.jacobian[c])
     return data, _Linear(y=data.observed[c], var_scan=data.point_sd ** 2 / data.weight[c], a_n=a_n,
-                         rigid=_rigid_columns(point.deviation.aligned, normal)[c], rest=point.rest)
+                         rigid=_rigid_columns(point.deviation.aligned, normal)[c], rest=point.rest,
+                         reach=point.reach, give=point.give)
 
 
 def _theta_r2(x, prior_mean, prior_prec) -> float:
@@ -370,8 +441,10 @@ def _map(design, lin: _Linear, x0, prior_mean, prior_prec, tau2, k):
     for inner in range(1, INNER_ITER + 1):
         rest = world_strings(design, x[0], x[1], cut_error=x[2:]).rest
         r_theta, d_e, _ = world_slopes(design, x[:2], x[2:])
-        jac = np.column_stack([lin.a_n @ r_theta, lin.a_n * d_e[None, :]])
-        y = lin.y - lin.a_n @ (rest - lin.rest)
+        delta, d_delta = lin.effective(rest)
+        a = lin.a_n @ d_delta
+        jac = np.column_stack([a @ r_theta, a * d_e[None, :]])
+        y = lin.y - lin.a_n @ delta
         weighted = prior_prec.copy()
         weighted[:2, :2] *= _prior_weight(x, prior_mean, prior_prec)
         for _ in range(NOISE_ROUNDS):
@@ -393,8 +466,9 @@ def _half_logdet_errors(design, lin: _Linear, theta, error, tau2, prior_prec_e, 
     """½ log det H_ee: the Gauss–Newton precision of the string errors e with θ held, the rigid motion
     marginalized, at (θ, e); the strings ``frozen`` (k,) keep their slopes ``d_e_frozen``."""
     d_e = np.where(frozen, d_e_frozen, error_slope(design, theta, error))
+    _, d_delta = lin.effective(world_strings(design, theta[0], theta[1], cut_error=error).rest)
     w = 1.0 / (tau2 + lin.var_scan)
-    m = lin.a_n * d_e[None, :]
+    m = (lin.a_n @ d_delta) * d_e[None, :]
     h = (m * w[:, None]).T @ m + prior_prec_e
     if lin.rigid.shape[1]:
         mg = (m * w[:, None]).T @ lin.rigid
@@ -509,8 +583,14 @@ def _predict(design, check, strings, theta, error, surface, params):
         log.warning("the inflation at the updated parameters did not converge: %s", inf.message)
     approx = design.approx
     dev = deviation(inf, approx.xyz, approx.uv, surface)
-    point = Prediction(theta, error, rest, inf, dev, None)
-    return replace(point, jacobian=face_jacobian(design, point, s, surface, params))
+    return _linearised(design, Prediction(theta, error, rest, inf, dev, None), s, surface, params)
+
+
+def _linearised(design, point: Prediction, strings, surface, params) -> Prediction:
+    """``point`` with its face Jacobian and its strings' slack reach (:func:`slack_reach`)."""
+    lin = linearize(design, point, strings, surface, params)
+    reach, give = slack_reach(lin, point.inflation.xyz)
+    return replace(point, jacobian=lin.face, reach=reach, give=give)
 
 
 def update(design, points, *, check=None, resolution: float = 0.020, params: Parameters = Parameters(),
@@ -568,8 +648,8 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
     prior_prec = block_diag(np.linalg.inv(cov0), np.diag(1.0 / s ** 2))
     cal = design.calibration
     theta = np.array([cal.delta_median, float(np.median(cal.d))])
-    point = first = Prediction(theta, np.zeros(k), strings.rest, med.inflation, med.deviation,
-                               face_jacobian(design, med, strings, surface, params))
+    point = first = _linearised(design, Prediction(theta, np.zeros(k), strings.rest, med.inflation,
+                                                   med.deviation, None), strings, surface, params)
     prior_mean = np.concatenate([mean0, np.zeros(k)])
     x = np.concatenate([theta, np.zeros(k)])
     history, converged, inflations, rms_before, tau2 = [], False, 0, None, None

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from airmat.asbuilt.scan_data import scan_data
-from airmat.asbuilt.update import known_face_update, update, world_slopes
+from airmat.asbuilt.update import _Linear, _map, _prior, known_face_update, slack_reach, update, world_slopes
 from airmat.asbuilt.updated_calibration import updated_calibration
 from airmat.check.compare import deviation
+from airmat.check.face_linearization import linearize
 from airmat.check.inflation_check import check, design_strings
 from airmat.check.string_world import world_strings
 from airmat.design.calibration_source import CalibrationSource, load_calibration
@@ -210,6 +211,51 @@ def test_a_world_far_outside_a_correlated_calibration_is_found(tmp_path):
     assert np.all(np.abs(z.mean(axis=0)) < 0.5), z.mean(axis=0)
     assert np.mean(np.all(np.abs(z) <= 1.96, axis=1)) >= 0.85, z
     assert np.all(np.diag(c[:2, :2]) < np.diag(cov))          # 120 strings: narrower than the calibration
+
+
+def test_the_linear_slack_reach_is_where_the_simulated_string_goes_slack(small_world):
+    """At the median run, string i's tension vanishes to first order once its rest length has grown by
+    u_i = r_i / (1 − C_ii) (:func:`slack_reach`, the others held): carried on to half of that it is
+    still taut, to twice that it is slack."""
+    w = small_world
+    med = w.check.runs["median"]
+    strings = design_strings(w.design, "median", lengths=w.check.lengths)
+    lin = linearize(w.design, med, strings, w.check.surface)
+    reach, give = slack_reach(lin, med.inflation.xyz)
+    assert np.all(reach > 0) and np.all((0 < np.diag(give)) & (np.diag(give) < 1)), (reach, give)
+    u = reach[0] / (1.0 - give[0, 0])
+    for factor, taut in ((0.5, True), (2.0, False)):
+        rest = strings.rest + np.array([factor * u, 0.0])
+        inf = inflate_from(med.inflation, replace(strings, rest=rest))
+        r, _ = slack_reach(linearize(w.design, replace(med, inflation=inf), replace(strings, rest=rest),
+                                     w.check.surface), inf.xyz)
+        assert (r[0] > 0) == taut, (factor, u, r)
+
+
+def test_a_string_at_the_onset_of_tension_is_not_held_by_the_scan(small_world):
+    """A string the world leaves slack sits, after a two-sided Gauss–Newton step, at the onset of
+    tension: the face is the scan's, and its rest length looks measured. Tension-only, the scan bounds it
+    only from below, so its error goes back to what the prior says once lengthening frees it (issue 41:
+    on the zoo's hypar-0.3 four such strings held (Δ, d) 4.9 and 4.2 posterior sd from the world).
+    Linear model at the world (Δ, d) with string 2's error 3 prior sd short, the scan equal to the
+    prediction: taut both ways the MAP keeps that error; at the onset (reach 0) it is freed."""
+    w = small_world
+    k, theta = 2, np.array([w.delta, w.d])
+    mean0, cov0, s = _prior(w.design, 0.003, "uniform")
+    prior_prec = np.block([[np.linalg.inv(cov0), np.zeros((2, k))], [np.zeros((k, 2)), np.diag(1 / s ** 2)]])
+    prior_mean = np.concatenate([mean0, np.zeros(k)])
+    x0 = np.concatenate([theta, [w.cut[0], -3 * s[1]]])
+    rest0 = world_strings(w.design, *theta, cut_error=x0[2:]).rest
+    a_n = np.random.default_rng(0).normal(0.0, 0.5, (200, k))
+    base = dict(y=np.zeros(200), var_scan=np.full(200, 1e-10), a_n=a_n, rigid=np.zeros((200, 0)), rest=rest0)
+    held = _Linear(**base, reach=np.array([0.01, 0.01]), give=np.diag([0.9, 0.9]))
+    onset = _Linear(**base, reach=np.array([0.01, 0.0]), give=np.diag([0.9, 0.9]))
+    x_held = _map(w.design, held, x0, prior_mean, prior_prec, 1e-10, k)[0]
+    x_free = _map(w.design, onset, x0, prior_mean, prior_prec, 1e-10, k)[0]
+    held_rest, free_rest = (world_strings(w.design, *x[:2], cut_error=x[2:]).rest for x in (x_held, x_free))
+    assert np.all(np.abs(held_rest - rest0) < 1e-6), held_rest - rest0           # both rest lengths held
+    assert abs(free_rest[0] - rest0[0]) < 1e-6 and free_rest[1] > rest0[1] + 1e-3  # string 2 lengthened, slack
+    assert abs(x_free[3]) < 0.5 * abs(x_held[3]), (x_held, x_free)
 
 
 def test_a_rigid_motion_of_the_scan_changes_nothing(small_update, small_world):
