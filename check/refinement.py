@@ -108,7 +108,7 @@ from airmat.inflation.mesh import MattressMesh, build_mattress_mesh
 from airmat.inflation.prolong import prolong
 from airmat.inflation.simulate import Inflation, inflate, inflate_from
 from airmat.inflation.strings import StringSet, check_resolution
-from airmat.check.refinement_result import Refinement, RefineOptions
+from airmat.check.refinement_result import RMS_TOL_PER_DIAGONAL, Refinement, RefineOptions
 
 __all__ = ["refine", "check_refinable", "refined_design", "REFINE_FLAG"]
 
@@ -287,9 +287,23 @@ def set_up_problem(design, options: RefineOptions) -> RefineProblem:
 
 
 def _solver_options(setup: RefineProblem, options: RefineOptions) -> dict:
-    """The keywords of :func:`~airmat.check.gauss_newton.gauss_newton` every stage shares (``xtol`` in m)."""
+    """The keywords of :func:`~airmat.check.gauss_newton.gauss_newton` every stage shares (``xtol`` and ``rms_tol`` in m)."""
     return dict(alpha=options.alpha, ftol=options.ftol, xtol=options.xtol * float(np.mean(setup.upper)),
-                rms_tol=options.rms_tol)
+                rms_tol=rms_tolerance(setup.design.mattress, options.rms_tol))
+
+
+def rms_tolerance(mattress, rms_tol: float | None) -> float:
+    """The stopping rule's RMS decrease (m): ``rms_tol``, or :data:`RMS_TOL_PER_DIAGONAL` of ``mattress``'s diagonal.
+
+    Examples
+    --------
+    >>> from airmat.design.mattress import Mattress
+    >>> round(rms_tolerance(Mattress(0.83, 0.74), None) * 1e3, 3), rms_tolerance(Mattress(0.83, 0.74), 1e-4)
+    (0.05, 0.0001)
+    """
+    if rms_tol is not None:
+        return float(rms_tol)
+    return RMS_TOL_PER_DIAGONAL * float(np.hypot(mattress.width, mattress.height))
 
 
 def _go_on(problem: TrialProblem, previous: GaussNewtonResult, xyz, setup: RefineProblem, max_iter: int,

@@ -16,7 +16,13 @@ from airmat.inflation.model import Parameters
 from airmat.inflation.simulate import INFLATE_TOL
 from airmat.summary import Summarized, mm
 
-__all__ = ["Refinement", "RefineOptions", "REPARAM_ROUNDS"]
+__all__ = ["Refinement", "RefineOptions", "REPARAM_ROUNDS", "RMS_TOL_PER_DIAGONAL"]
+
+#: the default ``rms_tol`` as a share of the mattress's diagonal: 0.05 mm on the small mattress (1112 mm),
+#: 0.14 mm on the large one (3053 mm). Deviations are judged in % of the diagonal, so is the last
+#: step's worth: an absolute 0.05 mm kept ``freeform-large-irregular`` iterating at 0.003 % of its
+#: diagonal a step until its 20 iterations ran out (``bench/bench_zoo.py``, docs/decisions.md).
+RMS_TOL_PER_DIAGONAL = 4.5e-5
 
 #: rounds of Ŝ re-parametrized in the refined face's realized metric (airmat.check.reparametrize)
 REPARAM_ROUNDS = 1
@@ -166,8 +172,9 @@ class RefineOptions:
         Stopping rule: relative decrease of the objective over an accepted step (dimensionless).
     xtol : float
         Stopping rule: step length / mean flat span of the strings (dimensionless).
-    rms_tol : float
-        Stopping rule: decrease of the RMS distance over an accepted step (m).
+    rms_tol : float or None
+        Stopping rule: decrease of the RMS distance over an accepted step (m); None:
+        :data:`RMS_TOL_PER_DIAGONAL` times the mattress's diagonal.
     tol : float
         Relative force residual of the inflations (the open-loop one and the verification).
     trial_tol : float
@@ -198,7 +205,7 @@ class RefineOptions:
     max_iter: int = 20
     ftol: float = 2e-3
     xtol: float = 1e-5
-    rms_tol: float = 5e-5
+    rms_tol: float | None = None
     tol: float = INFLATE_TOL
     trial_tol: float = 1e-4
     coarsest: float = 0.04

@@ -305,3 +305,19 @@ def test_the_damping_shrinks_only_after_an_iteration_whose_first_step_was_taken(
     free = _OutOfReach(reach=np.inf)                    # the first step is taken (rho = 1): the damping shrinks
     first = gauss_newton(free, np.zeros(1), np.zeros(1), x0, lo, hi, max_iter=1, lam0=1e-3, **kw)
     assert len(free.trials) == 1 and first.damping == pytest.approx(1e-3 / LAM_DOWN)
+
+
+def test_the_default_rms_step_of_the_stopping_rule_is_a_share_of_the_mattress_diagonal():
+    """0.05 mm on the small mattress, in proportion on the large one; an explicit rms_tol is kept."""
+    from airmat.check.refinement import _solver_options
+    from airmat.check.refinement_result import RefineOptions
+    from airmat.design.mattress import Mattress
+
+    def tol(width, height, **kw):
+        setup = SimpleNamespace(upper=np.array([0.3]), design=SimpleNamespace(mattress=Mattress(width, height)))
+        return _solver_options(setup, RefineOptions(**kw))["rms_tol"]
+
+    small, large = tol(0.83, 0.74), tol(2.6, 1.6)
+    assert small == pytest.approx(5.0e-5, rel=1e-3)
+    assert large / small == pytest.approx(np.hypot(2.6, 1.6) / np.hypot(0.83, 0.74), rel=1e-12)
+    assert tol(2.6, 1.6, rms_tol=2e-5) == 2e-5
