@@ -33,7 +33,8 @@ import numpy as np
 
 from airmat.check.face_linearization import linearize
 from airmat.check.length_covariance import LengthCovariance, length_covariance
-from airmat.check.tolerance_validation import VALIDATION_SAMPLES, Validation, sample_validation
+from airmat.check.tolerance_validation import (VALIDATION_SAMPLES, Validation, sample_validation,
+                                               validation_resolution)
 from airmat.errors import InputError
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
@@ -135,7 +136,8 @@ class LinearTolerance(Summarized):
             if v is None:
                 return "no spread of the string lengths"
             p = "" if v.p_within_se is None else f", P(RMS <= T) within +-{v.p_within_se:.2f}"
-            return (f"the linear spread is within {100 * abs(v.spread_error):.0f} % of {v.samples} full samples "
+            on = f" on the {v.resolution * 1e3:.0f} mm mesh" if np.isfinite(v.resolution) else ""
+            return (f"the linear spread is within {100 * abs(v.spread_error):.0f} % of {v.samples} full samples{on} "
                     f"(antithetic pairs, which give the mean shift){p}")
         return f"UNRELIABLE: {v.why}; use --samples K (a Monte-Carlo of full inflations)"
 
@@ -176,6 +178,7 @@ class LinearTolerance(Summarized):
             out["p_rms_within_tolerance"] = round(st["p_within"], 4)
         out["validation"] = None if v is None else {
             "samples": v.samples, "seed": v.seed, "converged": int(np.count_nonzero(v.converged)),
+            "resolution_mm": round(v.resolution * 1e3, 3) if np.isfinite(v.resolution) else None,
             "relative_error": None if not np.isfinite(v.relative_error) else round(v.relative_error, 4),
             "spread_error": None if not np.isfinite(v.spread_error) else round(v.spread_error, 4),
             "threshold": v.threshold, "p_threshold": v.p_threshold,
@@ -249,6 +252,28 @@ def _model_draws(base, a, cov, n: int, seed: int, chunk: int = 500) -> tuple:
     return np.quantile(dist, [0.5, 0.95], axis=0), np.sqrt(np.mean(dist ** 2, axis=1))
 
 
+def _validation(design, run, strings, lin, n: int, seed: int, cov, params, variance: float, base, *, workers: int,
+                scheduler) -> Validation:
+    """The validation's samples on :func:`validation_resolution`'s mesh: there, a median run at the same
+    lengths, its own Jacobian and variance; the RMS statistics about ``base``, the check's e₀ (m)."""
+    from airmat.check.inflation_check import check
+
+    res = validation_resolution(design, run.resolution)
+    if abs(res - run.resolution) < 1e-12:
+        return sample_validation(design, run, strings, lin, n, seed, cov, params, variance)
+    started = time.perf_counter()
+    coarse = check(design, resolution=res, params=params, envelope=False, surface=run.surface, lengths=run.lengths,
+                   workers=workers, scheduler=scheduler)
+    clin = linearize(design, coarse.runs["median"], strings, run.surface, params)
+    flat = clin.face.reshape(-1, clin.face.shape[2])
+    cvar = float(np.einsum("ri,ri->", flat, flat @ cov.total))
+    setup = time.perf_counter() - started
+    val = sample_validation(design, coarse, strings, clin, n, seed, cov, params, cvar, base=base)
+    log.debug("validation on the %.0f mm mesh: its median run and Jacobian %.2f s, %d samples %.2f s", res * 1e3,
+              setup, n, val.seconds)
+    return replace(val, seconds=val.seconds + setup)
+
+
 def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters = Parameters(),
               surface: str = "auto", calibrated_map: bool = False, lengths=None, cut_tolerance: float = 0.0,
               cut_distribution: str = "uniform", tolerance: float | None = None,
@@ -271,8 +296,10 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
         T (m) of P(RMS <= T).
     validate : int
         Full samples that check the prediction and give its mean shift, an even number (antithetic
-        pairs, solved in this process whatever ``workers``); 0: none, the result is then the
-        first-order model about e₀, not validated.
+        pairs, solved in this process whatever ``workers``, on the mesh of
+        :func:`~airmat.check.tolerance_validation.validation_resolution`: twice ``run``'s resolution
+        where that resolves the strings, up to 40 mm); 0: none, the result is then the first-order
+        model about e₀, not validated.
     seed : int
         Seed of the model's draws and of the validation samples.
     draws : int
@@ -316,8 +343,8 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     share = contrib / contrib.sum() if contrib.sum() > 0 else np.zeros_like(contrib)
     seconds = time.perf_counter() - started
     spread = bool(np.any(total))
-    val = (sample_validation(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()))
-           if validate and spread else None)
+    val = (_validation(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()), base,
+                       workers=workers, scheduler=scheduler) if validate and spread else None)
     started = time.perf_counter()
     shift = val.shift if val is not None else np.zeros_like(base)
     q, rms = _model_draws(base + shift, a, total, int(draws), seed)

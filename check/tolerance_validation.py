@@ -30,10 +30,9 @@ e = e₀ + m̂ + A δl*. Its checks:
   effect on the RMS, from the scatter between the pairs. Above :data:`RELIABLE_P` (0.05) the result
   says unreliable: the sampled shift leaves P(RMS <= T) open. That standard error is judged by its
   upper 95 % confidence bound (:attr:`Validation.p_within_bound`): with p pairs the scatter has p − 1
-  degrees of freedom, and with the default 2 pairs the bound is 15.9 times the estimate, so P is
-  vouched for only where the shift barely moves the RMS; ``validate=8`` (4 pairs) brings the factor
-  to 2.9. On the saddle at 20 mm the estimate from 2 pairs reads 0.04 while P over 8 validation seeds
-  scatters by 0.11.
+  degrees of freedom: with 2 pairs the bound is 15.9 times the estimate, with 4 pairs 2.9, with the
+  default 8 pairs 1.8. On the saddle at 20 mm the estimate from 2 pairs reads 0.04 while P over 8
+  validation seeds scatters by 0.11.
 - any sample that does not converge.
 
 The per-sample relative error ‖δe − A δl*‖ / ‖δe‖ is reported but is not the verdict: on 64 full
@@ -45,9 +44,13 @@ Scatter uncorrelated with A δl* adds only its square to the variance, so a 25 %
 by 3 %.
 
 Cost: the equilibria stop at :data:`VALIDATION_TOL` (1e-3: Newton's last step from there moves the
-face by less than 1e-5 of its change, measured on the saddle at 20 mm); each takes 7–20 fine-mesh
-Newton iterations, where one inflation does most of its iterations on the coarse meshes of its
-continuation. A Monte-Carlo from the flat mattress (``--samples K``) may also sample other
+face by less than 1e-5 of its change, measured on the saddle at 20 mm); each takes 7–20 Newton
+iterations on its mesh, where one inflation does most of its iterations on the coarse meshes of its
+continuation. So the samples run on the mesh twice as coarse as the check's
+(:func:`validation_resolution`), about a tenth of the cost, about a median run of their own there
+at the same lengths with its own Jacobian: the nonlinearity they measure is the mattress's, and on
+vault1 and the saddle (8 pairs, seeds 1–3) the shift from 40 mm samples moves P(RMS <= T) of the
+20 mm model as the 20 mm samples' shift does, within 0.005. A Monte-Carlo from the flat mattress (``--samples K``) may also sample other
 arrangements of the wrinkles, which no model about the median sees. SI units (m).
 """
 
@@ -65,11 +68,16 @@ from airmat.errors import AirmatError
 from airmat.inflation.model import with_strings
 from airmat.inflation.solver import NewtonSystem, solve
 
-__all__ = ["Validation", "sample_validation", "antithetic", "pair_statistics", "rms_shift_se", "VALIDATION_SAMPLES",
-           "RELIABLE_ERROR", "RELIABLE_P", "VALIDATION_TOL"]
+__all__ = ["Validation", "sample_validation", "antithetic", "pair_statistics", "rms_shift_se", "validation_resolution",
+           "VALIDATION_SAMPLES", "VALIDATION_COARSEST", "RELIABLE_ERROR", "RELIABLE_P", "VALIDATION_TOL"]
 
-#: full samples (antithetic pairs) that give the mean shift and check the model, by default
-VALIDATION_SAMPLES = 4
+#: full samples (antithetic pairs) that give the mean shift and check the model, by default: 8 pairs, so
+#: that P(RMS <= T)'s standard error is judged with 7 degrees of freedom (its bound 1.8 times the estimate)
+VALIDATION_SAMPLES = 16
+
+#: the samples run on the mesh twice as coarse as the check's when that is at most this (m) and leaves
+#: every string 4 edges (:func:`validation_resolution`)
+VALIDATION_COARSEST = 0.04
 
 #: relative error of the predicted spread above which the result is unreliable (module docstring)
 RELIABLE_ERROR = 0.15
@@ -114,7 +122,9 @@ class Validation:
     p_threshold : float
         :data:`RELIABLE_P`, the bound of ``p_within_se``.
     seconds : float
-        Wall time of the inflations.
+        Wall time of the inflations (the coarse median's included).
+    resolution : float
+        Mesh edge of the samples (m; nan when not known).
     """
 
     samples: int
@@ -130,6 +140,7 @@ class Validation:
     threshold: float = RELIABLE_ERROR
     p_threshold: float = RELIABLE_P
     seconds: float = 0.0
+    resolution: float = float("nan")
 
     @property
     def reliable(self) -> bool:
@@ -290,10 +301,35 @@ def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarr
     return out, ok
 
 
+def validation_resolution(design, resolution: float) -> float:
+    """The mesh of the validation's samples (m): twice ``resolution`` when that is at most
+    :data:`VALIDATION_COARSEST` and resolves every string, else ``resolution``.
+
+    The samples measure how far the response to the string lengths is from linear, and its mean
+    shift; both are the mattress's, not the mesh's. Side by side with samples on the check's own
+    20 mm mesh (vault1 and the saddle, 8 pairs, seeds 1–3) the shift moves P(RMS <= T) by the same
+    amount within 0.005, at a fifth to a tenth of the time (docs/decisions.md, Check).
+    """
+    from airmat.check.inflation_check import design_strings
+    from airmat.inflation.strings import check_resolution
+
+    coarse = 2.0 * float(resolution)
+    if coarse > VALIDATION_COARSEST + 1e-12:
+        return float(resolution)
+    try:
+        check_resolution(design_strings(design), coarse)
+    except AirmatError:
+        return float(resolution)
+    return coarse
+
+
 def sample_validation(design, check_run, strings, lin: Linearization, n: int, seed: int, cov: LengthCovariance,
-              params, variance: float) -> Validation:
-    """``n`` full samples in antithetic pairs, carried on from the median equilibrium, against the model
-    (``variance``: the model's total, Σ_v tr(A_v Σ A_vᵀ), m²)."""
+                      params, variance: float, base: np.ndarray | None = None) -> Validation:
+    """``n`` full samples in antithetic pairs, carried on from ``check_run``'s median equilibrium, against
+    the model ``lin`` of that run (``variance``: the model's total, Σ_v tr(A_v Σ A_vᵀ), m²).
+
+    ``base`` (N, 3): the deviation e₀ the RMS statistics add the changes to (m); default that run's
+    own (another mesh's, when the samples run on a coarser one)."""
     lengths, med = check_run.lengths, check_run.runs["median"]
     pairs = n // 2
     dr = draw(design, pairs, seed, lengths=lengths)
@@ -307,7 +343,7 @@ def sample_validation(design, check_run, strings, lin: Linearization, n: int, se
     approx = design.approx
     faces = (lin.operator @ x.transpose(1, 0, 2).reshape(x.shape[1], -1)).reshape(-1, len(x), 3).transpose(1, 0, 2)
     seconds = time.perf_counter() - started
-    e0 = med.deviation.aligned - approx.xyz
+    e0 = med.deviation.aligned - approx.xyz if base is None else np.asarray(base, float)
     both = converged.reshape(-1, 2).all(axis=1).repeat(2)
     actual = align_faces(faces[both], approx.xyz) - med.deviation.aligned
     predicted = np.einsum("nck,sk->snc", lin.face, antithetic(delta)[both])
@@ -315,7 +351,7 @@ def sample_validation(design, check_run, strings, lin: Linearization, n: int, se
         nan = float("nan")
         return Validation(samples=2 * pairs, seed=int(seed), relative_error=nan, spread_error=nan,
                           shift=np.zeros_like(e0), rms_shift_se=nan, rms_actual=np.zeros(0), rms_linear=np.zeros(0),
-                          converged=converged, seconds=seconds)
+                          converged=converged, seconds=seconds, resolution=float(check_run.resolution))
     shift, spread_err, per_pair = pair_statistics(actual, predicted)
     norm = float(np.linalg.norm(actual))
     err = float(np.linalg.norm(actual - predicted)) / norm if norm > 0 else float("nan")
@@ -325,4 +361,5 @@ def sample_validation(design, check_run, strings, lin: Linearization, n: int, se
         return np.sqrt(np.mean(np.sum((e0 + e) ** 2, axis=2), axis=1))
     return Validation(samples=2 * pairs, seed=int(seed), relative_error=err, spread_error=spread_err, shift=shift,
                       rms_shift_se=rms_shift_se(e0, per_pair, v), rms_actual=rms(actual),
-                      rms_linear=rms(shift + predicted), converged=converged, seconds=seconds)
+                      rms_linear=rms(shift + predicted), converged=converged, seconds=seconds,
+                      resolution=float(check_run.resolution))

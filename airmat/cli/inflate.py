@@ -11,6 +11,10 @@ from airmat.cli._ranges import check_range
 from airmat.cli._vocabulary import add_out_argument
 from airmat.errors import InputError
 
+#: ``--validation-samples``'s default, airmat.check.tolerance_validation.VALIDATION_SAMPLES (not imported:
+#: ``airmat --help`` stays free of numpy; tests/cli/test_tolerance_cli.py holds the two equal)
+VALIDATION_DEFAULT = 16
+
 
 def add_parser(sub, parents):
     p = sub.add_parser("check", aliases=["inflate"], parents=parents,
@@ -39,9 +43,10 @@ def add_parser(sub, parents):
                         "default without "
                         "--samples, where the lengths have a spread), 'samples' (the K runs of --samples; the "
                         "default with it) or 'none'")
-    p.add_argument("--validation-samples", type=int, default=4, metavar="N",
+    p.add_argument("--validation-samples", type=int, default=VALIDATION_DEFAULT, metavar="N",
                    help="with the linear tolerance: full samples (an even count, in antithetic pairs) that check it "
-                        "and give its mean shift; with --tolerance-mm, 8 or more pin P(RMS <= T) down (default 4)")
+                        "and give its mean shift, on a mesh twice as coarse as --resolution-mm up to 40 mm "
+                        f"(default {VALIDATION_DEFAULT})")
     p.add_argument("--cut-tolerance-mm", type=float, default=0.0, metavar="t",
                    help="with the linear tolerance: every string cut and tied within +-t mm (uniform), on top of "
                         "the calibration's spread (mm, default 0)")
@@ -105,7 +110,7 @@ def _tolerance_mode(args) -> str:
     n = args.validation_samples
     if n < 0 or n % 2:
         raise InputError(f"--validation-samples must be an even count >= 0 (antithetic pairs), got {n}")
-    if n != 4 and mode != "linear":
+    if n != VALIDATION_DEFAULT and mode != "linear":
         raise InputError("--validation-samples needs the linear tolerance (--tolerance linear)")
     if args.cut_tolerance_mm > 0 and mode != "linear":
         raise InputError("--cut-tolerance-mm needs the linear tolerance (--tolerance linear)")
