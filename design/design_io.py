@@ -292,6 +292,10 @@ def _params(doc: dict, path: Path) -> DesignParams:
     kw["free_face_span"] = bool(p.get("free_face_span", False))
     # and before the fold route
     kw["folds"] = bool(p.get("folds", False))
+    # and the shorter end dashes (absent: whole dashes only)
+    kw["end_dashes"] = bool(p.get("end_dashes", False))
+    if "L_end_min_mm" in p:
+        kw["L_end_min"] = _number(p["L_end_min_mm"], "parameters.L_end_min_mm", path) * MM
     return DesignParams(**kw)
 
 

@@ -87,6 +87,12 @@ class DesignParams:
         Evaluate Equation 3 at each string's free-face span on Ŝ (:mod:`airmat.design.free_face`:
         shorter where Ŝ compresses the face opposite the string). False: at the dash's
         span on Ω (the paper).
+    end_dashes : bool
+        Cut a shorter dash (at least ``L_end_min``) from each line end's leftover inside the margin, its own
+        arc length its L in Equation 3 (:class:`airmat.design.stripes.StripeParams`); False: the paper's
+        whole dashes only, the leftovers stay unstrung edge bands.
+    L_end_min : float or None
+        Shortest end dash (m); None: L / 2.
     folds : bool
         When Ŝ contracts edges below its σ band, search stiffer U_A edge lengths for a Ŝ that gathers the
         excess into drape-like folds (:mod:`airmat.design.fold_route`, the paper's §4 dome).
@@ -109,6 +115,8 @@ class DesignParams:
     face_metric: bool = True
     free_face_span: bool = True
     folds: bool = True
+    end_dashes: bool = False
+    L_end_min: float | None = None
 
     def weights(self) -> dict:
         """The U_A weights in use: given ones, else the surface side's defaults."""
@@ -119,7 +127,8 @@ class DesignParams:
     def stripe_params(self, L: float) -> StripeParams:
         """The stripe tracer's parameters, with L resolved."""
         return StripeParams(L=L, mu1=L if self.mu1 is None else self.mu1, mu2=self.mu2, margin=self.margin, step=self.step,
-                            kappa_min=self.kappa_min, weight_min=self.weight_min)
+                            kappa_min=self.kappa_min, weight_min=self.weight_min, end_dashes=self.end_dashes,
+                            L_end_min=self.L_end_min)
 
     def file_dict(self, L: float) -> dict:
         """The parameters as written to design.json (mm, 1/m)."""
@@ -129,7 +138,8 @@ class DesignParams:
                 "kappa_min_per_m": self.kappa_min,
                 "weight_min": self.weight_min, "n_kappa_points": int(self.n_kappa_points),
                 "tie_grid_mm": mm(self.tie_grid), "face_metric": bool(self.face_metric),
-                "free_face_span": bool(self.free_face_span), "folds": bool(self.folds)}
+                "free_face_span": bool(self.free_face_span), "folds": bool(self.folds),
+                **({"end_dashes": True, "L_end_min_mm": mm(sp.L_end_min_used)} if self.end_dashes else {})}
 
 
 @dataclass(frozen=True, repr=False)
@@ -282,6 +292,14 @@ def design(target, mattress, *, calibration=None,
     timings["stripes"] = time.perf_counter() - t
     t = time.perf_counter()
     dashes, snap = snap_dashes(stripes.dashes, grid=params.tie_grid, width=mattress.width, height=mattress.height)
+    if sp.end_dashes:       # an end dash whose ends the grid put closer than the minimum (a line curving on Ω): none
+        end = {d.id for d in stripes.dashes if d.length < L * (1.0 - 1e-6)}
+        keep = np.array([d.id not in end or d.chord >= sp.L_end_min_used for d in dashes], bool)
+        if not keep.all():
+            log.info(f"{int((~keep).sum())} end dashes with ends closer than {sp.L_end_min_used * 1e3:.0f} mm once "
+                     f"tied to the grid: left out")
+            dashes = tuple(d for d, k in zip(dashes, keep) if k)
+            snap = dataclasses.replace(snap, end_shift=snap.end_shift[keep], length_change=snap.length_change[keep])
     pattern = string_pattern(mfield, dashes, calibration, L=L, n_points=params.n_kappa_points,
                              approx=approx if params.free_face_span else None,
                              kappa_min=params.kappa_min, notes=stripes.notes, tie_grid=snap)

@@ -126,7 +126,8 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     tie_grid : airmat.design.tie_grid.TieGridReport, optional
         When the dashes' ends were snapped to the mattress's grid: each string's
         length then comes from Equation 3 at its own dash's L (``dash.length``),
-        not at ``L``; the report is kept in the pattern.
+        not at ``L``; the report is kept in the pattern. Without it the whole dashes
+        take ``L`` and a shorter one (a line end's) its own length.
     approx : airmat.design.surface.ApproxSurface, optional
         Ŝ: Equation 3 is then evaluated at each string's free-face span on it,
         min(c, 1) times the dash's span (:func:`airmat.design.free_face.free_face_ratio`, with
@@ -138,7 +139,9 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     """
     kappa = dash_kappa(mfield, dashes, n_points=n_points)
     snapped = tie_grid is not None and tie_grid.grid > 0
-    spans = np.array([d.length for d in dashes]) if snapped else np.full(len(dashes), float(L))
+    own = np.array([d.length for d in dashes], float).reshape(-1)
+    # free ends: the whole dashes at L exactly; a shorter dash (a line end's, StripeParams.end_dashes) at its own
+    spans = own if snapped else np.where(own < float(L) * (1.0 - 1e-6), own, float(L))
     med_flat = flat_length(spans, np.median(calibration.delta))
     need = np.abs(kappa) >= max(kappa_min, 0.0)
     need &= np.abs(kappa) > 0

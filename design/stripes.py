@@ -9,6 +9,13 @@ at the seed (same orientation, arc lengths matched at the seed) and shifted
 by μ₁/2. Root lines centre their dashes on the part of the line inside the
 margin. Only dashes entirely inside Ω shrunk by the margin are kept.
 
+With ``end_dashes`` a line's leftover at either end (the part inside the
+margin beyond its last whole dash and one gap μ₁ − L, shorter than L) gets
+one shorter dash when it is at least ``L_end_min`` long and bends as much as
+a whole dash at ``kappa_min`` (mean |κ| × its length >= kappa_min × L); a line with no
+whole dash gets one along its longest part inside (at most L). Such a
+dash's own arc length is its L in Equation 3 (:mod:`airmat.design.string_lengths`).
+
 SI units: metres, 1/m.
 """
 
@@ -22,7 +29,7 @@ import numpy as np
 
 from airmat.constants import PAPER_L
 from airmat.errors import InputError
-from airmat.geometry.polyline import interpolate_at
+from airmat.geometry.polyline import interpolate_at, points_at_fractions
 from airmat.design.field import FAMILIES
 from airmat.design.pattern import Dash
 from airmat.design.streamlines import sample_field_grid, trace_streamlines
@@ -56,6 +63,12 @@ class StripeParams:
     weight_min : float
         Lines stop where the direction weight is below this (umbilics, where the
         principal directions mean nothing); default 0.02.
+    end_dashes : bool
+        Cut a shorter dash from each line end's leftover inside the margin (beyond the whole
+        dashes and one gap μ₁ − L) when it is at least ``L_end_min`` long (default False:
+        leftovers stay unstrung, the edge bands of :mod:`airmat.design.coverage`).
+    L_end_min : float or None
+        Shortest end dash (m); None: L / 2.
     """
 
     L: float = PAPER_L
@@ -65,6 +78,13 @@ class StripeParams:
     step: float | None = None
     kappa_min: float = 0.25
     weight_min: float = 0.0
+    end_dashes: bool = False
+    L_end_min: float | None = None
+
+    @property
+    def L_end_min_used(self) -> float:
+        """The shortest end dash (m)."""
+        return 0.5 * self.L if self.L_end_min is None else self.L_end_min
 
     @property
     def step_used(self) -> float:
@@ -93,6 +113,8 @@ def check_stripe_params(params: StripeParams, width: float, height: float) -> No
     if p.step_used > 0.5 * p.mu2:
         raise InputError(f"step {p.step_used * 1e3:.1f} mm is too coarse for mu2 = {p.mu2 * 1e3:.0f} mm "
                          f"(need step <= mu2 / 2)", step=p.step_used)
+    if p.end_dashes and not (np.isfinite(p.L_end_min_used) and 0 < p.L_end_min_used <= p.L):
+        raise InputError(f"L_end_min must be in (0, L], got {p.L_end_min_used!r} m", L_end_min=p.L_end_min_used)
     if not (p.kappa_min >= 0 and p.weight_min >= 0):
         raise InputError("kappa_min and weight_min must be >= 0", kappa_min=p.kappa_min)
 
@@ -217,6 +239,75 @@ def dash_phases(lines, *, L: float, mu1: float, inside, n_trials: int = 16) -> n
     return _phases_from_roots(lines, centred + offsets[best][root], mu1)
 
 
+def _dash_starts(total: float, *, phase: float, L: float, mu1: float) -> np.ndarray:
+    """Arc lengths ``phase + k μ₁`` of the dashes of length L that fit on [0, total]."""
+    tol = 1e-9 * mu1  # round-off in the arc length must not drop the last dash
+    starts = phase + mu1 * np.arange(math.ceil(-phase / mu1), math.floor((total - L - phase + tol) / mu1) + 1)
+    return starts[(starts >= 0) & (starts + L <= total + tol)]
+
+
+def _piece(points: np.ndarray, arclength: np.ndarray, s0: float, s1: float) -> np.ndarray:
+    """The sub-polyline between arc lengths s0 < s1, ends interpolated."""
+    ends = interpolate_at(points, arclength, [s0, s1])
+    inner = points[(arclength > s0) & (arclength < s1)]
+    return np.concatenate([ends[:1], inner, ends[1:]])
+
+
+def _inside_runs(line, inside, h: float):
+    """Maximal arc-length intervals (s0, s1) of ``line`` inside, sampled every ``h`` (m)."""
+    total = line.arclength[-1]
+    s = np.linspace(0.0, total, max(int(math.ceil(total / h)) + 1, 2))
+    ok = inside(interpolate_at(line.points, line.arclength, s))
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+    return [(s[a], s[b - 1]) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def end_dash_intervals(line, regular: np.ndarray, *, L: float, mu1: float, L_min: float, inside,
+                       h: float = 1e-3) -> list:
+    """Arc-length intervals (s0, s1) of the shorter dashes at the ends of one line.
+
+    Parameters
+    ----------
+    line : Streamline
+    regular : ndarray of shape (k,)
+        Starts (m) of the line's whole dashes kept (sorted).
+    L, mu1 : float
+        Dash length and period (m).
+    L_min : float
+        Shortest end dash (m).
+    inside : callable
+        ``inside(points (k, 2)) -> bool (k,)``: within Ω minus the margin.
+    h : float
+        Arc-length sampling of the inside test (m).
+
+    Returns
+    -------
+    list of (float, float)
+        Each at least ``L_min`` and at most L long; before the first whole dash (ending one gap
+        μ₁ − L before it), after the last, or, on a line without whole dashes, along its longest
+        part inside.
+    """
+    runs = _inside_runs(line, inside, h)
+    if not runs:
+        return []
+    gap = mu1 - L
+    out = []
+    if not len(regular):
+        s0, s1 = max(runs, key=lambda r: r[1] - r[0])
+        if s1 - s0 >= L_min:
+            c, half = 0.5 * (s0 + s1), 0.5 * min(L, s1 - s0)
+            out.append((c - half, c + half))
+        return out
+    head_end, tail_start = regular[0] - gap, regular[-1] + L + gap
+    for s0, s1 in runs:
+        # the run the leftover lies in (up to one sample step h of round-off at its ends)
+        if s0 - h <= head_end <= s1 + h and head_end - s0 >= L_min:
+            out.append((max(s0, head_end - L), head_end))
+        if s0 - h <= tail_start <= s1 + h and s1 - tail_start >= L_min:
+            out.append((tail_start, min(s1, tail_start + L)))
+    return out
+
+
 def cut_dashes(points: np.ndarray, arclength: np.ndarray, *, phase: float, L: float, mu1: float):
     """Pieces of arc length L starting at ``phase + k μ₁`` that fit on a polyline.
 
@@ -233,16 +324,9 @@ def cut_dashes(points: np.ndarray, arclength: np.ndarray, *, phase: float, L: fl
     list of ndarray of shape (m, 2)
         Sub-polylines with interpolated ends; each has arc length L exactly.
     """
-    total, tol = arclength[-1], 1e-9 * mu1  # round-off in the arc length must not drop the last dash
-    starts = phase + mu1 * np.arange(math.ceil(-phase / mu1), math.floor((total - L - phase + tol) / mu1) + 1)
-    starts = starts[(starts >= 0) & (starts + L <= total + tol)]
-    out = []
-    for s0 in starts:
-        s1 = min(s0 + L, total)
-        ends = interpolate_at(points, arclength, [s0, s1])
-        inner = points[(arclength > s0) & (arclength < s1)]
-        out.append(np.concatenate([ends[:1], inner, ends[1:]]))
-    return out
+    total = arclength[-1]
+    return [_piece(points, arclength, s0, min(s0 + L, total))
+            for s0 in _dash_starts(total, phase=phase, L=L, mu1=mu1)]
 
 
 def _line_order(lines, keep: list[int]) -> list[int]:
@@ -269,12 +353,26 @@ def _family_stripes(mfield, family: int, params: StripeParams) -> FamilyStripes:
     lines = trace_streamlines(grid, separation=p.mu2, step=step, seed_margin=p.margin,
                               kappa_min=p.kappa_min, weight_min=p.weight_min)
     phases = dash_phases(lines.lines, L=p.L, mu1=p.mu1, inside=inside)
-    pieces = {}
+    pieces, n_end = {}, 0
     for i, line in enumerate(lines.lines):
-        cut = [d for d in cut_dashes(line.points, line.arclength, phase=phases[i], L=p.L, mu1=p.mu1)
-               if np.all(inside(d))]
+        total = line.arclength[-1]
+        starts = _dash_starts(total, phase=phases[i], L=p.L, mu1=p.mu1)
+        cut = [(s0, _piece(line.points, line.arclength, s0, min(s0 + p.L, total))) for s0 in starts]
+        cut = [(s0, d) for s0, d in cut if np.all(inside(d))]
+        if p.end_dashes:
+            kept = np.array([s0 for s0, _ in cut])
+            for s0, s1 in end_dash_intervals(line, kept, L=p.L, mu1=p.mu1, L_min=p.L_end_min_used, inside=inside):
+                d = _piece(line.points, line.arclength, s0, s1)
+                # the bend it is cut for, |κ| × its length, at least a whole dash's at kappa_min: a shorter
+                # dash of a weakly curved family would shorten its face less than the threshold means
+                kappa = mfield.kappa_at(family, points_at_fractions(d, np.linspace(0.0, 1.0, 10))).mean()
+                chord = float(np.linalg.norm(d[-1] - d[0]))  # the string spans its chord: at least the minimum
+                if np.all(inside(d)) and abs(kappa) * (s1 - s0) >= p.kappa_min * p.L and chord >= p.L_end_min_used:
+                    cut.append((s0, d))
+                    n_end += 1
+            cut.sort(key=lambda c: c[0])
         if cut:
-            pieces[i] = cut
+            pieces[i] = [d for _, d in cut]
     dashes = []
     for number, i in enumerate(_line_order(lines.lines, sorted(pieces)), start=1):
         for k, poly in enumerate(pieces[i], start=1):
@@ -287,7 +385,9 @@ def _family_stripes(mfield, family: int, params: StripeParams) -> FamilyStripes:
     else:
         stops = ", ".join(f"{k} {v}" for k, v in lines.stop_counts.items())
         note = (f"{name}: {len(lines.lines)} lines ({lines.n_roots} from fallback seeds), "
-                f"{len(pieces)} with dashes, {len(dashes)} dashes; line ends: {stops}")
+                f"{len(pieces)} with dashes, {len(dashes)} dashes"
+                + (f" ({n_end} shorter end dashes, >= {p.L_end_min_used * 1e3:.0f} mm)" if p.end_dashes else "")
+                + f"; line ends: {stops}")
         if lines.stop_counts.get("low_weight"):
             note += (f"; {lines.stop_counts['low_weight']} line ends stopped at umbilics (direction weight "
                      f"< {p.weight_min:g}): no strings of this family there")

@@ -68,6 +68,11 @@ def add_parser(sub, parents):
                    help="keep the plain approximated surface when it strains the mattress beyond its sigma band, "
                         "instead of searching stiffer edge weights for one that gathers into drape-like folds "
                         "(the paper's dome)")
+    p.add_argument("--end-dashes", action="store_true",
+                   help="cut a shorter dash from each line end's leftover inside the margin (too short for a whole "
+                        "dash of L), its string's length from Equation 3 at that dash's own length")
+    p.add_argument("--L-end-min-mm", type=float, default=None,
+                   help="with --end-dashes: the shortest end dash (mm, default L/2)")
     p.add_argument("--refine", action="store_true",
                    help="refine the string lengths through the simulated inflation (adjoint Gauss-Newton), "
                         "so that the inflated named face lands on the approximated surface")
@@ -167,7 +172,8 @@ def _params(args):
                         k_a2=args.k_a2, k_a3=args.k_a3, kappa_min=args.kappa_min_per_m,
                         weight_min=args.weight_min, tie_grid=args.tie_grid_mm * mm,
                         face_metric=not args.flat_metric, free_face_span=not args.dash_span,
-                        folds=not args.no_folds)
+                        folds=not args.no_folds, end_dashes=args.end_dashes,
+                        L_end_min=None if args.L_end_min_mm is None else args.L_end_min_mm * mm)
 
 
 def summary_text(doc: dict, out) -> str:

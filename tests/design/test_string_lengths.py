@@ -117,3 +117,25 @@ def test_length_quantiles_is_one_batch_equal_to_per_dash_calls():
     for j, k in enumerate(kap):
         np.testing.assert_allclose(q[:, j], _direct(k), rtol=1e-12)
     assert np.all(frac[:3] == 0)
+
+
+@pytest.mark.parametrize("snapped", [False, True])
+def test_shorter_end_dashes_take_equation_3_at_their_own_span(snapped):
+    from airmat.design.tie_grid import snap_dashes
+
+    mf = cylinder_field(kappa=-4.0)
+    p = StripeParams(mu1=0.30, end_dashes=True)
+    dashes = trace_stripes(mf, p).dashes
+    grid = None
+    if snapped:
+        dashes, grid = snap_dashes(dashes, grid=0.02, width=0.83, height=0.74)
+    pattern = string_pattern(mf, dashes, CAL, L=p.L, tie_grid=grid)
+    short = [s for s in pattern.strings if s.dash.length < p.L * (1 - 1e-6)]
+    assert short
+    for s in short:
+        np.testing.assert_allclose([s.l_median, s.l_lo95, s.l_hi95], _direct(4.0, L=s.dash.length), rtol=1e-9)
+    if not snapped:      # the whole dashes at L exactly, as before
+        whole = [s for s in pattern.strings if s.dash.length >= p.L * (1 - 1e-6)]
+        assert whole
+        for s in whole:
+            np.testing.assert_allclose([s.l_median, s.l_lo95, s.l_hi95], _direct(4.0), rtol=1e-9)

@@ -194,3 +194,30 @@ def test_cut_dashes_invariants_on_random_polylines(turns, phase, L, extra):
         assert np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)) == pytest.approx(L, rel=1e-9)
         s0 = phase + k * mu1  # starts on the grid, in order, never overlapping
         np.testing.assert_allclose(p[0], [np.interp(s0, arc, pts[:, j]) for j in (0, 1)], atol=1e-12)
+
+
+@pytest.mark.parametrize("mu1", [0.30, 0.40])
+def test_end_dashes_fill_the_line_ends_with_shorter_dashes_inside_the_margin(mu1):
+    mf = cylinder_field(kappa=-4.0)
+    p = StripeParams(mu1=mu1, end_dashes=True, L_end_min=0.05)
+    off = trace_stripes(mf, StripeParams(mu1=mu1))
+    on = trace_stripes(mf, p)
+    whole = [d for d in on.dashes if d.length == pytest.approx(p.L, rel=1e-9)]
+    short = [d for d in on.dashes if d.length < p.L * (1 - 1e-9)]
+    # the whole dashes are the same; the shorter ones come in addition, each within [L_end_min, L)
+    assert [d.polyline.tolist() for d in whole] == [d.polyline.tolist() for d in off.dashes]
+    assert short and all(p.L_end_min - 1e-9 <= d.length < p.L for d in short)
+    assert all(np.all(mf.contains(d.polyline, p.margin)) for d in on.dashes)
+    assert "shorter end dashes" in on.families[0].note
+    # along each line the dashes keep at least the gap mu1 - L between them, numbered in order
+    for line in {d.line for d in on.dashes}:
+        ds = sorted((d for d in on.dashes if d.line == line), key=lambda d: d.index)
+        assert [d.index for d in ds] == list(range(1, len(ds) + 1))
+        for a, b in zip(ds, ds[1:]):
+            gap = np.linalg.norm(b.polyline[0] - a.polyline[-1])
+            assert gap >= mu1 - p.L - 1e-6
+
+
+def test_end_dashes_need_a_minimum_in_range():
+    with pytest.raises(InputError, match="L_end_min"):
+        trace_stripes(cylinder_field(kappa=-4.0), StripeParams(end_dashes=True, L_end_min=0.4))
