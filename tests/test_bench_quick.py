@@ -22,6 +22,7 @@ HEADERS = {
     "bench_check.py": ["one after the other (s)", "processes (s)", "largest vertex difference (mm)"],
     "bench_cholesky.py": ["method", "symbolic (s)", "numeric (s)", "factor non-zeros"],
     "bench_coverage.py": ["k1 hole / weak / edge band", "k2 hole / weak / edge band"],
+    "bench_end_dashes.py": ["end dashes", "shortest dash (mm)", "refined % diag"],
     "bench_cylinder.py": ["scan points", "method", "radius error median (%)"],
     "bench_dash_kappa.py": ["family", "turning: median", "circle: median"],
     "bench_density.py": ["mu1 x mu2 (mm)", "mid RMS (mm)", "best face % diag"],
