@@ -13,7 +13,7 @@ is refined at the resolution (:func:`airmat.check.refinement.refine`, ``--max-it
 iterations) and checked (the refinement's verification is the median run). Columns: strings of the
 design and its shortest dash's arc length (the tie grid moves whole dashes' ends a few mm), the named face's RMS deviation from Ŝ in % of
 Ŝ's diagonal at the open-loop and the refined lengths, whether the refinement and the check
-converged, and the refinement's seconds. The promise (issue 39): refined within 1.0 % of the
+converged, and the refinement's seconds. The promise: refined within 1.0 % of the
 diagonal (the dome preset: 1.5 %).
 """
 
