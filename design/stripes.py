@@ -114,7 +114,8 @@ def check_stripe_params(params: StripeParams, width: float, height: float) -> No
         raise InputError(f"step {p.step_used * 1e3:.1f} mm is too coarse for mu2 = {p.mu2 * 1e3:.0f} mm "
                          f"(need step <= mu2 / 2)", step=p.step_used)
     if p.end_dashes and not (np.isfinite(p.L_end_min_used) and 0 < p.L_end_min_used <= p.L):
-        raise InputError(f"L_end_min must be in (0, L], got {p.L_end_min_used!r} m", L_end_min=p.L_end_min_used)
+        raise InputError(f"the shortest end dash must be in (0, L = {p.L * 1e3:g} mm], got "
+                         f"{p.L_end_min_used * 1e3:g} mm", L_end_min=p.L_end_min_used)
     if not (p.kappa_min >= 0 and p.weight_min >= 0):
         raise InputError("kappa_min and weight_min must be >= 0", kappa_min=p.kappa_min)
 

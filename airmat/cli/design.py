@@ -165,6 +165,8 @@ def _params(args):
             and all(k is None or k >= 0 for k in (args.k_a2, args.k_a3))):
         raise InputError("--margin-mm, --kappa-min-per-m, --weight-min, --tie-grid-mm, --k-a2 and --k-a3 "
                          "must be >= 0")
+    if args.L_end_min_mm is not None and not args.end_dashes:
+        raise InputError("--L-end-min-mm needs --end-dashes")
     mm = 1e-3
     return DesignParams(L=None if args.L_mm is None else args.L_mm * mm, mu1=None if args.mu1_mm is None else args.mu1_mm * mm,
                         mu2=args.mu2_mm * mm, margin=args.margin_mm * mm, spacing=args.resolution_mm * mm,

@@ -219,5 +219,5 @@ def test_end_dashes_fill_the_line_ends_with_shorter_dashes_inside_the_margin(mu1
 
 
 def test_end_dashes_need_a_minimum_in_range():
-    with pytest.raises(InputError, match="L_end_min"):
+    with pytest.raises(InputError, match=r"shortest end dash must be in \(0, L = 300 mm\], got 400 mm"):
         trace_stripes(cylinder_field(kappa=-4.0), StripeParams(end_dashes=True, L_end_min=0.4))
