@@ -69,9 +69,11 @@ log = logging.getLogger(__name__)
 
 #: relinearisations at most (each one inflation). The face is far from linear in the rest lengths (on refined
 #: vault1 a 3 mm change of one string moves the face 14 % less than its tangent says), so Gauss–Newton gains
-#: about a factor 4 of the scan–prediction mismatch per relinearisation (22 -> 2.1 -> 0.62 -> 0.15 -> 0.04 mm,
-#: the scan's noise): from a world 2 mm beyond the calibration's 95 % it converges after 4
-MAX_RELINEARISATIONS = 5
+#: about a factor 4 of the scan–prediction mismatch per relinearisation on vault1 (22 -> 2.2 -> 0.41 -> 0.18 ->
+#: 0.05 -> 0.035 mm, the scan's noise: converged after 6 linearisations), less where strings go slack and taut
+#: on the way: the zoo's hypar-0.3 converges after 8 (21 -> 2.2 -> 1.2 -> 0.75 -> 0.35 -> 0.30 -> 0.06 -> 0.04
+#: mm), wave-once after 7 with one step halved (``bench/bench_correct.py``)
+MAX_RELINEARISATIONS = 10
 #: a string's tie looks wrong when |ê| exceeds this many standard errors (and the cut tolerance)
 FLAG_SE = 3.0
 #: converged when no parameter moved by more than this fraction of its posterior standard deviation (a
@@ -665,7 +667,7 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         elif (_objective(lin, at, prior_mean, prior_prec, tau2)
               > _objective(best[1], best[0], prior_mean, prior_prec, tau2)):
             # the Gauss–Newton step raised the exact objective (the face is not linear that far): halve it
-            # from the accepted point, or, with no inflation left, take the accepted point's linearisation
+            # from the accepted point, or, with no relinearisation left, take the accepted point's linearisation
             if it < max_relinearisations:
                 back = 0.5 * (best[0] + at)
                 log.info("as-built update, linearisation %d: the step raised the MAP objective, halved", it + 1)

@@ -42,8 +42,9 @@ def add_parser(sub, parents):
                    help="how well strings are cut and tied, +-mm: the prior of each tie's error (default 3)")
     p.add_argument("--keep-tolerance-mm", type=float, default=1.0,
                    help="a string whose length would change by at most this is kept (mm, default 1)")
-    p.add_argument("--relinearisations", type=int, default=5, metavar="N",
-                   help="relinearisations of the update, each one inflation (a count 0 to 5, default 5)")
+    p.add_argument("--relinearisations", type=int, default=10, metavar="N",
+                   help="relinearisations of the update at most, each one inflation (a count 0 to 10, default 10; "
+                        "the update stops earlier once it converges)")
     p.add_argument("--calibration", metavar="DIR", default=None,
                    help="the cylinder calibration the design was made from (default: the design's own "
                         "calibration folder)")
@@ -65,8 +66,10 @@ def run(args) -> int:
 
     for name in ("--resolution-mm", "--cut-tolerance-mm", "--keep-tolerance-mm"):
         check_range(name, getattr(args, name[2:].replace("-", "_")))
-    if not 0 <= args.relinearisations <= 5:
-        raise InputError(f"--relinearisations: {args.relinearisations} is outside 0 to 5")
+    from airmat.asbuilt.update import MAX_RELINEARISATIONS
+
+    if not 0 <= args.relinearisations <= MAX_RELINEARISATIONS:
+        raise InputError(f"--relinearisations: {args.relinearisations} is outside 0 to {MAX_RELINEARISATIONS}")
     scan = Path(args.scan)
     if not scan.is_file():
         raise InputError(f"{scan}: no such scan file" if not scan.exists() else f"{scan}: not a file")

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from airmat.asbuilt.scan_data import scan_data
-from airmat.asbuilt.update import _Linear, _map, _prior, known_face_update, slack_reach, update, world_slopes
+from airmat.asbuilt.update import (MAX_RELINEARISATIONS, _Linear, _map, _prior, known_face_update, slack_reach,
+                                   update, world_slopes)
 from airmat.asbuilt.updated_calibration import updated_calibration
 from airmat.check.compare import deviation
 from airmat.check.face_linearization import linearize
@@ -295,7 +296,7 @@ def test_bad_scans_are_refused(small_world):
     with pytest.raises(InputError, match="registered"):
         update(w.design, w.points + [10.0, 0.0, 0.0], check=w.check)
     with pytest.raises(InputError, match="max_relinearisations"):
-        update(w.design, w.points, check=w.check, max_relinearisations=7)
+        update(w.design, w.points, check=w.check, max_relinearisations=MAX_RELINEARISATIONS + 1)
 
 
 def test_the_updated_posterior_is_a_calibration_folder(small_update, small_world, tmp_path):
