@@ -15,7 +15,8 @@ samples in antithetic pairs, seed 1, which also give the model's mean shift). Co
 - times: the K runs (summed inside the runs), the median run (one inflation), the linear model
   (Jacobian, covariance, model draws) and its validation runs (wall), and linear + validation over
   one inflation;
-- the validation's spread error (the verdict's measure) and its per-sample displacement error
+- the validation's spread error (the verdict's measure), the scale s of the model's change (its
+  variance ratio shrunk toward 1, ``Validation.spread_scale``) and its per-sample displacement error
   (``LinearTolerance.validation``);
 - the median over Ŝ's vertices of |q95_linear / q95_MC − 1|, the per-vertex 95 % quantile of the
   distance from Ŝ; for scale, the same statistic's sampling error at K (one quantile's relative
@@ -23,13 +24,23 @@ samples in antithetic pairs, seed 1, which also give the model's mean shift). Co
 - the RMS median and 95th percentile, linear / MC (mm), and P(RMS <= T) both ways with T the
   MC's median RMS rounded to 0.1 mm (where a probability is most sensitive), the linear one with the
   standard error of its sampled mean shift, the MC's with its binomial standard error; and the linear
-  P's mean and standard deviation over the validation seeds 1..``--seeds`` (the mean shift is sampled).
+  P's mean and standard deviation over the validation seeds 1..``--seeds`` (the mean shift is sampled);
+- the commit the Monte-Carlo was made at.
+
+The Monte-Carlo's per-sample results (each sample's aligned named face at Ŝ's vertices, its RMS and
+per-vertex distance, converged, seconds) are saved under ``--mc-cache`` (default ``out/mc_cache``),
+one ``.npz`` per preset, K, seed, resolution, σ and a hash of what the inflations depend on (the
+designed strings, Ŝ, the calibration and the source of ``airmat.inflation`` and of the check's
+sampling, alignment and length map). A later run with the same key reads them and inflates the median
+run only, so the linear side can be re-evaluated against the same Monte-Carlo in seconds.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import logging
+import subprocess
 import sys
 import time
 from dataclasses import replace
@@ -46,18 +57,89 @@ from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 
 
-def row(preset: str, resolution: float, k: int, validate: int, sigma: float, workers: int, seeds: int) -> str:
+#: the sources the Monte-Carlo's inflations and deviations depend on (beside the design's arrays)
+MC_SOURCES = ("inflation", "check/inflation_check.py", "check/monte_carlo.py", "check/compare.py",
+              "check/length_map.py", "check/string_world.py", "check/calibrated_map.py")
+
+
+def mc_key(preset: str, design, resolution: float, k: int, seed: int, sigma: float) -> str:
+    """The cache key of a Monte-Carlo: preset, K, seed, mesh, σ and a hash of the inflations' inputs."""
+    h = hashlib.sha256()
+    root = HERE.parent
+    for src in MC_SOURCES:
+        files = sorted((root / src).rglob("*.py")) if (root / src).is_dir() else [root / src]
+        for f in files:
+            h.update(str(f.relative_to(root)).encode())
+            h.update(f.read_bytes())
+    from airmat.check.inflation_check import design_strings
+
+    st, cal = design_strings(design), design.calibration
+    for arr in (design.approx.xyz, design.approx.faces, st.a, st.b, st.rest, st.top, cal.delta, cal.d,
+                np.zeros(0) if cal.sigma is None else cal.sigma):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    return f"{preset}_K{k}_seed{seed}_{resolution / MM:g}mm_sigma{sigma:g}_{h.hexdigest()[:12]}"
+
+
+def commit() -> str:
+    """HEAD's short hash, with "+dirty" when the Monte-Carlo's sources differ from it."""
+    def git(*a):
+        return subprocess.run(["git", *a], cwd=HERE.parent, capture_output=True, text=True).stdout.strip()
+    dirty = git("status", "--porcelain", "--", *MC_SOURCES)
+    return git("rev-parse", "--short", "HEAD") + ("+dirty" if dirty else "")
+
+
+def monte_carlo_run(design, preset: str, resolution: float, k: int, sigma: float, workers: int, cache: Path):
+    """The check with K Monte-Carlo samples (seed 0), from ``cache`` when it holds it: (run, wall s, commit).
+
+    A cached Monte-Carlo comes back as a check of the median run only (one inflation) with the
+    cached samples' MonteCarloResult; a fresh one is written to the cache, per sample: the aligned
+    face (K, N, 3), RMS (K,), per-vertex distance (K, N), converged, seconds (m, s)."""
+    import airmat.check.inflation_check as ic
+    from airmat.check.monte_carlo import MonteCarloResult, draw
+
+    path = cache / (mc_key(preset, design, resolution, k, 0, sigma) + ".npz")
+    if path.exists():
+        z = np.load(path)
+        run = ic.check(design, resolution=resolution, envelope=False, workers=workers)
+        per = z["per_vertex"]
+        mc = MonteCarloResult(draws=draw(design, k, 0, lengths=run.lengths), rms=z["rms"],
+                              per_vertex_q=np.quantile(per, [0.5, 0.95], axis=0), converged=z["converged"],
+                              seconds=float(z["seconds"]))
+        return replace(run, monte_carlo=mc), float(z["wall"]), str(z["commit"])
+    captured = {}
+    summarize = ic.summarize
+
+    def keep(draws, deviations, **kw):
+        captured["devs"] = list(deviations)
+        return summarize(draws, deviations, **kw)
+    ic.summarize = keep
+    try:
+        t0 = time.perf_counter()
+        run = ic.check(design, resolution=resolution, envelope=False, samples=k, seed=0, workers=workers)
+        wall = time.perf_counter() - t0
+    finally:
+        ic.summarize = summarize
+    devs, mc, made = captured["devs"], run.monte_carlo, commit()
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez_compressed(tmp, aligned=np.stack([d.aligned for d in devs]), rms=mc.rms,
+                        per_vertex=np.stack([d.per_vertex for d in devs]), converged=mc.converged,
+                        seconds=mc.seconds, wall=wall, commit=made, preset=preset, k=k, seed=0,
+                        resolution=resolution, sigma=sigma)
+    tmp.replace(path)
+    return run, wall, made
+
+
+def row(preset: str, resolution: float, k: int, validate: int, sigma: float, workers: int, seeds: int,
+        cache: Path) -> str:
     from scipy.stats import norm
 
-    from airmat.check.inflation_check import check
     from airmat.check.tolerance import tolerance
 
     design = designed_preset(preset)
     cal = design.calibration
     design = replace(design, calibration=replace(cal, sigma=np.full(cal.n_samples, sigma)))
-    t0 = time.perf_counter()
-    run = check(design, resolution=resolution, envelope=False, samples=k, seed=0, workers=workers)
-    t_check = time.perf_counter() - t0
+    run, t_check, made = monte_carlo_run(design, preset, resolution, k, sigma, workers, cache)
     mc = run.monte_carlo
     t_med = run.runs["median"].inflation.seconds
     T = round(float(np.median(mc.rms)) / MM, 1) * MM
@@ -71,7 +153,8 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
     if v is None:
         val, p_se, total = "n/a", "", lin.seconds
     else:
-        val = (f"{100 * v.spread_error:+.1f} % / {100 * v.relative_error:.0f} % ({v.samples}, {v.seconds:.1f} s)")
+        val = (f"{100 * v.spread_error:+.1f} %, s {v.spread_scale:.3f} / {100 * v.relative_error:.0f} % "
+               f"({v.samples}, {v.seconds:.1f} s)")
         p_se = "" if v.p_within_se is None else f" ± {v.p_within_se:.2f}"
         total = lin.seconds + v.seconds
     return (f"| {preset} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc.seconds:.1f} ({t_check:.1f} wall) "
@@ -80,7 +163,7 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
             f"| {lst['rms_median'] / MM:.2f} / {mst['rms_median'] / MM:.2f} | {lst['rms_p95'] / MM:.2f} / "
             f"{mst['rms_p95'] / MM:.2f} | {T / MM:.1f}: {lst['p_within']:.2f}{p_se} / {mst['p_within']:.2f} "
             f"± {mst['p_within_se']:.2f} | {np.mean(ps):.2f} ± {np.std(ps, ddof=1) if len(ps) > 1 else 0:.2f} "
-            f"| {lin.reliable} |")
+            f"| {lin.reliable} | `{made}` |")
 
 
 def main(argv=None) -> int:
@@ -94,6 +177,8 @@ def main(argv=None) -> int:
                     help="validation seeds 1..N whose P(RMS <= T) the last column summarizes (the shift is sampled)")
     ap.add_argument("--sigma-per-m", type=float, default=0.3, help="nominal scatter sigma (1/m), stated")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes of the inflations")
+    ap.add_argument("--mc-cache", type=Path, default=HERE.parent / "out" / "mc_cache",
+                    help="folder of the Monte-Carlos' per-sample results, read when the key matches")
     ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 60 mm, K = 4, 2 validation samples")
     args = ap.parse_args(argv)
     if args.quick:
@@ -102,12 +187,14 @@ def main(argv=None) -> int:
     print(f"linear tolerance against {args.samples} Monte-Carlo samples at {args.resolution_mm:g} mm, "
           f"sigma {args.sigma_per_m:g} 1/m (nominal), {args.validate} validation samples")
     print("| preset | mesh (mm) | strings | K | MC runs (s) | one inflation (s) | linear (s) "
-          "| validation: spread / per-sample error (samples, s) | linear + validation / one inflation "
+          "| validation: spread error, scale s / per-sample error (samples, s) | linear + validation / one inflation "
           "| 95 % band: median rel. diff | RMS median lin / MC (mm) | RMS p95 lin / MC (mm) "
-          f"| T (mm): P(RMS <= T) lin / MC | P lin over validation seeds 1-{args.seeds}: mean ± sd | reliable |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          f"| T (mm): P(RMS <= T) lin / MC | P lin over validation seeds 1-{args.seeds}: mean ± sd | reliable "
+          "| MC made at |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.presets:
-        print(row(name, args.resolution_mm * MM, args.samples, args.validate, args.sigma_per_m, args.jobs, args.seeds),
+        print(row(name, args.resolution_mm * MM, args.samples, args.validate, args.sigma_per_m, args.jobs, args.seeds,
+                  args.mc_cache),
               flush=True)
     return 0
 

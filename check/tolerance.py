@@ -20,7 +20,9 @@ e ~ N(e₀ + m̂, A Σ Aᵀ) (m̂ the mean shift, below) gives, cheaply:
   anti-correlated with the others in the posterior).
 
 The Gaussian is centred on e₀ + m̂, m̂ the nonlinear mean shift that full samples in antithetic pairs
-give, and checked against them (:mod:`airmat.check.tolerance_validation`). SI units (m).
+give, its change A δl* scaled by s, the square root of those samples' variance about their mean over
+the model's for the same δl* (shrunk toward 1 by its standard error), and checked against them
+(:mod:`airmat.check.tolerance_validation`): e ~ N(e₀ + m̂, s² A Σ Aᵀ). SI units (m).
 """
 
 from __future__ import annotations
@@ -71,7 +73,7 @@ class LinearTolerance(Summarized):
     normal : ndarray of shape (N, 3)
         Ŝ's unit vertex normals.
     normal_sd : ndarray of shape (N,)
-        Standard deviation of each vertex's change along the normal (m).
+        Standard deviation of each vertex's change along the normal, s times the first order's (m).
     per_vertex_q : ndarray of shape (2, N)
         50 % and 95 % quantiles of the distance |e_v| under the model (m), as ``MonteCarloResult.per_vertex_q``.
     rms : ndarray of shape (MODEL_DRAWS,)
@@ -83,7 +85,8 @@ class LinearTolerance(Summarized):
     tolerance : float or None
         T (m) of P(RMS <= T).
     validation : Validation or None
-        None: not validated (``validate=0``, or no spread to validate).
+        None: not validated (``validate=0``, or no spread to validate); its ``spread_scale`` is s, the
+        factor of the model's change A δl*.
     seconds : float
         Wall time of the Jacobian and the model (the median run and the validation excluded).
     seed : int
@@ -111,7 +114,8 @@ class LinearTolerance(Summarized):
                 ("RMS median", mm(float(np.median(self.rms)))), ("RMS 95 %", mm(float(np.quantile(self.rms, 0.95))))]
         if self.validation is not None:
             rows.append(("validation", f"spread {100 * self.validation.spread_error:+.0f} % on "
-                                       f"{self.validation.samples} samples"))
+                                       f"{self.validation.samples} samples, scaled by "
+                                       f"{self.validation.spread_scale:.3f}"))
         return "LinearTolerance", rows + [("reliable", self.reliable)]
 
     @property
@@ -163,8 +167,8 @@ class LinearTolerance(Summarized):
                "model": "first order about the mean: the adjoint Jacobian of the aligned face at the median run "
                         "(rigid motions removed) times the covariance of the simulated string lengths (posterior of "
                         "(delta, d) through Equation 3, scatter sigma, cut and tie), sampled as a Gaussian about the "
-                        "median run's face plus the mean shift of the validation's antithetic pairs of full samples "
-                        "(airmat.check.tolerance)",
+                        "median run's face plus the mean shift of the validation's antithetic pairs of full samples, "
+                        "its spread scaled to theirs (validation.spread_scale) (airmat.check.tolerance)",
                "sigma_source": cov.sigma_source, "cut_tolerance_mm": round(cov.cut_tolerance * 1e3, 3),
                "cut_distribution": cov.cut_distribution, "length_sd_mm": spread(cov.sd),
                "band_normal_mm": {"p50": spread(self.band_normal[0]), "p95": spread(self.band_normal[1])},
@@ -181,6 +185,9 @@ class LinearTolerance(Summarized):
             "resolution_mm": round(v.resolution * 1e3, 3) if np.isfinite(v.resolution) else None,
             "relative_error": None if not np.isfinite(v.relative_error) else round(v.relative_error, 4),
             "spread_error": None if not np.isfinite(v.spread_error) else round(v.spread_error, 4),
+            "variance_ratio": None if not np.isfinite(v.variance_ratio) else round(v.variance_ratio, 4),
+            "variance_ratio_se": None if not np.isfinite(v.variance_ratio_se) else round(v.variance_ratio_se, 4),
+            "spread_scale": round(v.spread_scale, 4),
             "threshold": v.threshold, "p_threshold": v.p_threshold,
             "mean_shift_mm": {"rms": round(float(np.sqrt(np.mean(np.sum(v.shift ** 2, axis=1)))) * 1e3, 3),
                               "max": round(float(np.max(np.linalg.norm(v.shift, axis=1))) * 1e3, 3)},
@@ -253,14 +260,15 @@ def _model_draws(base, a, cov, n: int, seed: int, chunk: int = 500) -> tuple:
 
 
 def _validation(design, run, strings, lin, n: int, seed: int, cov, params, variance: float, base, *, workers: int,
-                scheduler) -> Validation:
+                scheduler, spread_correction: bool = True) -> Validation:
     """The validation's samples on :func:`validation_resolution`'s mesh: there, a median run at the same
     lengths, its own Jacobian and variance; the RMS statistics about ``base``, the check's e₀ (m)."""
     from airmat.check.inflation_check import check
 
     res = validation_resolution(design, run.resolution)
     if abs(res - run.resolution) < 1e-12:
-        return sample_validation(design, run, strings, lin, n, seed, cov, params, variance)
+        return sample_validation(design, run, strings, lin, n, seed, cov, params, variance,
+                                 spread_correction=spread_correction)
     started = time.perf_counter()
     coarse = check(design, resolution=res, params=params, envelope=False, surface=run.surface, lengths=run.lengths,
                    workers=workers, scheduler=scheduler)
@@ -268,7 +276,8 @@ def _validation(design, run, strings, lin, n: int, seed: int, cov, params, varia
     flat = clin.face.reshape(-1, clin.face.shape[2])
     cvar = float(np.einsum("ri,ri->", flat, flat @ cov.total))
     setup = time.perf_counter() - started
-    val = sample_validation(design, coarse, strings, clin, n, seed, cov, params, cvar, base=base)
+    val = sample_validation(design, coarse, strings, clin, n, seed, cov, params, cvar, base=base,
+                            spread_correction=spread_correction)
     log.debug("validation on the %.0f mm mesh: its median run and Jacobian %.2f s, %d samples %.2f s", res * 1e3,
               setup, n, val.seconds)
     return replace(val, seconds=val.seconds + setup)
@@ -278,7 +287,7 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
               surface: str = "auto", calibrated_map: bool = False, lengths=None, cut_tolerance: float = 0.0,
               cut_distribution: str = "uniform", tolerance: float | None = None,
               validate: int = VALIDATION_SAMPLES, seed: int = 0, draws: int = MODEL_DRAWS, workers: int = 1,
-              scheduler: str | None = None, known=None) -> LinearTolerance:
+              scheduler: str | None = None, known=None, spread_correction: bool = True) -> LinearTolerance:
     """The tolerance of a design as a distribution, to first order with its mean shift (see the module docstring).
 
     Parameters
@@ -304,6 +313,10 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
         Seed of the model's draws and of the validation samples.
     draws : int
         Draws of the Gaussian model.
+    spread_correction : bool
+        Scale the model's change A δl* by the validation's
+        :func:`~airmat.check.tolerance_validation.spread_scale` (the full samples' spread about their mean
+        against the model's, shrunk toward 1 by its standard error); False: the first-order spread.
 
     Returns
     -------
@@ -344,10 +357,13 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     seconds = time.perf_counter() - started
     spread = bool(np.any(total))
     val = (_validation(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()), base,
-                       workers=workers, scheduler=scheduler) if validate and spread else None)
+                       workers=workers, scheduler=scheduler, spread_correction=spread_correction)
+           if validate and spread else None)
     started = time.perf_counter()
     shift = val.shift if val is not None else np.zeros_like(base)
-    q, rms = _model_draws(base + shift, a, total, int(draws), seed)
+    scale = val.spread_scale if val is not None else 1.0
+    normal_sd = scale * normal_sd
+    q, rms = _model_draws(base + shift, a, scale ** 2 * total, int(draws), seed)
     if val is not None and tolerance is not None:
         val = replace(val, p_within_se=density_at(rms, tolerance) * val.rms_shift_se)
     seconds += time.perf_counter() - started

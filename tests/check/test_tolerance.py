@@ -18,7 +18,7 @@ from airmat.check.monte_carlo import draw  # noqa: E402
 from airmat.check.face_linearization import align_faces  # noqa: E402
 from airmat.check.tolerance import density_at, tolerance  # noqa: E402
 from airmat.check.tolerance_validation import (RELIABLE_ERROR, Validation, antithetic, pair_statistics,  # noqa: E402
-                                               rms_shift_se)
+                                               rms_shift_se, spread_scale, variance_ratio)
 from airmat.errors import InputError  # noqa: E402
 from airmat.inflation.simulate import inflate_from  # noqa: E402
 
@@ -168,6 +168,49 @@ def test_the_mean_shift_is_the_samples_mean_and_moves_the_model(case):
     assert block["spread_error"] == round(v.spread_error, 4) and block["mean_shift_mm"]["rms"] > 0
 
 
+@pytest.mark.slow
+def test_the_spread_correction_brings_the_model_to_full_samples_where_strings_slacken(case):
+    """±8 mm cut errors on the three strings: a lengthened string nears its slack onset and moves the face
+    less than the Jacobian says, so full samples spread less than the first-order model (their variance
+    about their mean over the model's for the same δl, paired: measured 0.92 ± 0.02 on 160 samples
+    carried on from the median). The validation's 32 pairs measure that ratio within the two standard
+    errors' noise; the first-order model's mean squared deviation, paired on the 160 samples' own δl,
+    lies above theirs by more than 3 of its standard errors (measured 3.6), the corrected one within 2 (0.1);
+    and P(RMS <= T) at the samples' median RMS moves toward their 0.5 (measured 0.47 -> 0.50)."""
+    design, run = case
+    med, t, k = run.runs["median"], 0.008, 160
+    strings = design_strings(design, "median", lengths=run.lengths)
+    dr = draw(design, k, 11, lengths=run.lengths)
+    cut = np.random.default_rng(12).uniform(-t, t, dr.length.shape)
+    delta = run.lengths.to_simulated(np.maximum(dr.length + cut, 0.0)) - strings.rest
+    faces = np.stack([deviation(inflate_from(med.inflation, replace(strings, rest=strings.rest + d)), design.approx.xyz,
+                                design.approx.uv, run.surface).aligned for d in delta])
+    changes = faces - med.deviation.aligned                 # e₀ = 0 here: the changes are the deviations
+    raw, fixed = (tolerance(design, run=run, validate=64, seed=2, cut_tolerance=t, spread_correction=c)
+                  for c in (False, True))
+    v = fixed.validation
+    pred = np.einsum("nck,sk->snc", fixed.jacobian, delta)
+    dc, pc = changes - changes.mean(axis=0), pred - pred.mean(axis=0)
+    num, den = np.sum(dc ** 2, axis=(1, 2)), np.sum(pc ** 2, axis=(1, 2))
+    r_mc = num.sum() / den.sum()
+    se_mc = np.std(num - r_mc * den, ddof=1) / np.sqrt(k) / den.mean()
+    assert 1 - r_mc > 3 * se_mc, (r_mc, se_mc)                       # the nonlinearity is there
+    assert abs(v.variance_ratio - r_mc) < 3 * np.hypot(v.variance_ratio_se, se_mc), (v.variance_ratio, r_mc)
+    assert raw.validation.spread_scale == 1.0 and v.spread_scale < 1.0
+
+    def excess(scale):          # the model's mean squared deviation minus the samples', paired on their δl
+        d = (np.mean(np.sum((v.shift + scale * pred) ** 2, axis=2), axis=1)
+             - np.mean(np.sum(changes ** 2, axis=2), axis=1))
+        return d.mean(), d.std(ddof=1) / np.sqrt(k)
+    (before, se), (after, se_after) = excess(1.0), excess(v.spread_scale)
+    assert before > 3 * se and abs(after) < 2 * se_after, (before, se, after, se_after)
+    T = float(np.median(np.sqrt(np.mean(np.sum(changes ** 2, axis=2), axis=1))))
+    p_raw, p_fixed = (float(np.mean(m.rms <= T)) for m in (raw, fixed))
+    assert abs(p_fixed - 0.5) < abs(p_raw - 0.5), (p_raw, p_fixed)
+    assert np.allclose(fixed.normal_sd, v.spread_scale * raw.normal_sd)
+    assert fixed.block()["validation"]["spread_scale"] == round(v.spread_scale, 4)
+
+
 def test_p_is_vouched_for_by_the_upper_bound_of_its_standard_error():
     """The P check uses the χ² upper 95 % bound of the pairs' standard error: 2 pairs (1 degree of
     freedom) multiply it by 1/sqrt(χ²₀.₀₅(1)) = 15.95, 4 pairs by sqrt(3/0.3518) = 2.92 (exact values)."""
@@ -221,6 +264,40 @@ def test_pairs_give_the_exact_mean_of_a_quadratic_response():
     for c in (0.7, 1.0, 1.3):
         s, e, _ = pair_statistics(c * lin + 0.01, lin)
         assert np.allclose(s, 0.01) and np.isclose(e, c - 1)
+
+
+def test_the_variance_ratio_of_a_cubic_response_is_its_analytic_value():
+    """e(z) = a z + b z² + c z³ for z ~ N(0, 1), the model a z: the variance of e about its mean is
+    |a|² + 6 a·c + 15 |c|² + 2 |b|² (E z⁴ = 3, E z⁶ = 15, Var z² = 2), so R = that over |a|². Many pairs
+    recover it within 4 of their own standard errors; the standard error of 8 pairs is the scatter of
+    their estimate over repetitions within the delta method's accuracy at 8 pairs (measured 0.61, hence
+    the bound 0.5: a standard error computed from the wrong residual or without √p is off by 2x or more)."""
+    rng = np.random.default_rng(6)
+    n = 6
+    a = rng.normal(size=(n, 3))
+    b, c = 0.2 * rng.normal(size=(n, 3)), -0.05 * a + 0.02 * rng.normal(size=(n, 3))
+    truth = 1 + (6 * np.sum(a * c) + 15 * np.sum(c * c) + 2 * np.sum(b * b)) / np.sum(a * a)
+    assert abs(truth - 1) > 0.1                                    # a nonlinearity the ratio must see
+
+    def ratio(p):
+        z = antithetic(rng.standard_normal((p, 1)))[:, 0, None, None]
+        return variance_ratio(a * z + b * z ** 2 + c * z ** 3, a * z)
+    r, per, se = ratio(4000)
+    assert abs(r - truth) < 4 * se and np.isclose(per.mean(), r)
+    small = np.array([ratio(8) for _ in range(400)], dtype=object)
+    sd, rms_se = np.std(small[:, 0].astype(float)), np.sqrt(np.mean(small[:, 2].astype(float) ** 2))
+    assert 0.5 < rms_se / sd < 1.5, (rms_se, sd)
+    r1, _, se1 = variance_ratio(np.stack([a, -a]) * 1.1, np.stack([a, -a]))       # one pair: no standard error
+    assert np.isclose(r1, 1.21) and np.isnan(se1)
+
+
+def test_the_spread_scale_shrinks_toward_one_by_the_standard_error():
+    """sqrt(1 + w (R − 1)), w = (R − 1)² / ((R − 1)² + se²): whole when exact, half way at one se, 1 when unknown."""
+    assert spread_scale(0.81, 0.0) == pytest.approx(0.9) and spread_scale(1.21, 0.0) == pytest.approx(1.1)
+    assert spread_scale(0.81, 0.19) == pytest.approx(np.sqrt(1 - 0.19 / 2))
+    assert spread_scale(0.81, 1.9) == pytest.approx(1.0, abs=0.01)         # ten se from nothing: barely moved
+    assert spread_scale(1.0, 0.1) == 1.0 and spread_scale(float("nan"), 0.1) == 1.0
+    assert spread_scale(0.81, float("nan")) == 1.0
 
 
 def test_rms_shift_se_and_density():
