@@ -5,6 +5,7 @@ Usage::
     .venv/bin/python bench/bench_tolerance.py                        # vault1 and saddle at 20 mm, K = 256
     .venv/bin/python bench/bench_tolerance.py --presets vault1 --resolution-mm 40 --samples 64   # a shared machine
     .venv/bin/python bench/bench_tolerance.py --quick                # a smoke run: vault1 at 60 mm, K = 4
+    .venv/bin/python bench/bench_tolerance.py --presets vault2 --samples 0 --tolerance-mm 44.2   # linear side only
 
 Per preset (designed with the paper's calibration values, seed 0, and a stated nominal scatter
 ``--sigma-per-m``, as ``bench_monte_carlo.py``): one check with K Monte-Carlo samples
@@ -131,22 +132,37 @@ def monte_carlo_run(design, preset: str, resolution: float, k: int, sigma: float
 
 
 def row(preset: str, resolution: float, k: int, validate: int, sigma: float, workers: int, seeds: int,
-        cache: Path) -> str:
+        cache: Path, t_mm: float | None = None) -> str:
     from scipy.stats import norm
 
+    from airmat.check.inflation_check import check
     from airmat.check.tolerance import tolerance
 
     design = designed_preset(preset)
     cal = design.calibration
     design = replace(design, calibration=replace(cal, sigma=np.full(cal.n_samples, sigma)))
-    run, t_check, made = monte_carlo_run(design, preset, resolution, k, sigma, workers, cache)
-    mc = run.monte_carlo
+    if k == 0:                 # the linear side alone, at a given T (a Monte-Carlo made elsewhere)
+        t0 = time.perf_counter()
+        run = check(design, resolution=resolution, envelope=False, workers=workers)
+        t_check, made, mc = time.perf_counter() - t0, "none", None
+        T = t_mm * MM
+    else:
+        run, t_check, made = monte_carlo_run(design, preset, resolution, k, sigma, workers, cache)
+        mc = run.monte_carlo
+        T = round(float(np.median(mc.rms)) / MM, 1) * MM
     t_med = run.runs["median"].inflation.seconds
-    T = round(float(np.median(mc.rms)) / MM, 1) * MM
     lin = tolerance(design, run=run, validate=validate, seed=1, tolerance=T, workers=workers)
-    mst, lst = replace(mc, tolerance=T).stats(), lin.stats()
-    rel = float(np.median(np.abs(lin.per_vertex_q[1] / np.maximum(mc.per_vertex_q[1], 1e-12) - 1)))
-    rel_se = np.sqrt(0.95 * 0.05 / k) / (2 * norm.pdf(1.96) * 1.96)
+    lst = lin.stats()
+    if mc is None:
+        nan = float("nan")
+        mst = {"rms_median": nan, "rms_p95": nan, "p_within": nan, "p_within_se": nan}
+        rel = rel_se = nan
+        mc_seconds = nan
+    else:
+        mst = replace(mc, tolerance=T).stats()
+        rel = float(np.median(np.abs(lin.per_vertex_q[1] / np.maximum(mc.per_vertex_q[1], 1e-12) - 1)))
+        rel_se = np.sqrt(0.95 * 0.05 / k) / (2 * norm.pdf(1.96) * 1.96)
+        mc_seconds = mc.seconds
     ps = [lin.stats()["p_within"]] + [tolerance(design, run=run, validate=validate, seed=s, tolerance=T,
                                                  workers=workers).stats()["p_within"] for s in range(2, seeds + 1)]
     v = lin.validation
@@ -157,7 +173,7 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
                f"({v.samples}, {v.seconds:.1f} s)")
         p_se = "" if v.p_within_se is None else f" ± {v.p_within_se:.2f}"
         total = lin.seconds + v.seconds
-    return (f"| {preset} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc.seconds:.1f} ({t_check:.1f} wall) "
+    return (f"| {preset} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc_seconds:.1f} ({t_check:.1f} wall) "
             f"| {t_med:.1f} | {lin.seconds:.2f} | {val} | {total / t_med:.1f}x "
             f"| {100 * rel:.1f} % (sampling {100 * rel_se:.0f} %) "
             f"| {lst['rms_median'] / MM:.2f} / {mst['rms_median'] / MM:.2f} | {lst['rms_p95'] / MM:.2f} / "
@@ -170,7 +186,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presets", nargs="+", default=["vault1", "saddle"])
     ap.add_argument("--resolution-mm", type=float, default=20.0)
-    ap.add_argument("--samples", type=int, default=256, help="Monte-Carlo samples K")
+    ap.add_argument("--samples", type=int, default=256,
+                    help="Monte-Carlo samples K; 0: the linear side alone at --tolerance-mm (no Monte-Carlo)")
+    ap.add_argument("--tolerance-mm", type=float, default=None, help="T (mm) of P(RMS <= T) with --samples 0")
     ap.add_argument("--validate", type=int, default=VALIDATION_SAMPLES,
                     help="full samples (antithetic pairs: even) that check the model and give its mean shift")
     ap.add_argument("--seeds", type=int, default=8,
@@ -181,6 +199,8 @@ def main(argv=None) -> int:
                     help="folder of the Monte-Carlos' per-sample results, read when the key matches")
     ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 60 mm, K = 4, 2 validation samples")
     args = ap.parse_args(argv)
+    if args.samples == 0 and args.tolerance_mm is None:
+        ap.error("--samples 0 needs --tolerance-mm")
     if args.quick:
         args.presets, args.resolution_mm, args.samples, args.validate, args.seeds = ["vault1"], 60.0, 4, 2, 2
     logging.getLogger().setLevel(logging.WARNING)
@@ -194,7 +214,7 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.presets:
         print(row(name, args.resolution_mm * MM, args.samples, args.validate, args.sigma_per_m, args.jobs, args.seeds,
-                  args.mc_cache),
+                  args.mc_cache, args.tolerance_mm),
               flush=True)
     return 0
 
