@@ -598,7 +598,7 @@ def _linearised(design, point: Prediction, strings, surface, params) -> Predicti
 def update(design, points, *, check=None, resolution: float = 0.020, params: Parameters = Parameters(),
            cut_tolerance: float = 0.003, cut_distribution: str = "uniform",
            max_relinearisations: int = 2, max_points: int | None = MAX_POINTS, n_samples: int = 2000, seed: int = 0,
-           strict: bool = False) -> Update:
+           strict: bool = False, start: Update | None = None) -> Update:
     """Update the calibration posterior and each string's length error with a registered scan.
 
     Parameters
@@ -625,6 +625,12 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         Seed of those draws, of the σ carried over and of the subset of the points.
     strict : bool
         Raise :class:`~airmat.errors.ConvergenceError` when the relinearisations do not converge.
+    start : Update, optional
+        An update of the same design with the same check whose last linearisation point and estimate
+        this one starts from (the points re-registered onto its prediction,
+        :func:`airmat.asbuilt.pipeline.correct`); it converges without a new inflation when the MAP at
+        that point moves no parameter more than :data:`STEP_TOL`. ``rms_before`` is still the scan's
+        misfit from the design's median run.
 
     Returns
     -------
@@ -655,6 +661,12 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
     prior_mean = np.concatenate([mean0, np.zeros(k)])
     x = np.concatenate([theta, np.zeros(k)])
     history, converged, inflations, rms_before, tau2 = [], False, 0, None, None
+    if start is not None:
+        if start.error.shape != (k,):
+            raise InputError(f"the start has {start.error.size} strings, the design {k}: not its update")
+        rms_before = float(np.sqrt(np.mean(_linearisation(first, faces, points)[1].y ** 2)))
+        tau2 = max(start.noise_sd ** 2, TAU_FLOOR ** 2)
+        point, x = start.prediction, np.concatenate([start.mean, start.error])
     names = ("delta", "d") + tuple(f"string {st.dash.id}" for st in design.pattern.strings)
     raised = False                 # the last step raised the objective and was not taken
     best = None                    # the accepted linearisation: (its point's parameters, _Linear, ScanData, point)
@@ -664,8 +676,8 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         if rms_before is None:
             rms_before = float(np.sqrt(np.mean(lin.y ** 2)))
             tau2 = rms_before ** 2
-        elif (_objective(lin, at, prior_mean, prior_prec, tau2)
-              > _objective(best[1], best[0], prior_mean, prior_prec, tau2)):
+        elif best is not None and (_objective(lin, at, prior_mean, prior_prec, tau2)
+                                   > _objective(best[1], best[0], prior_mean, prior_prec, tau2)):
             # the Gauss–Newton step raised the exact objective (the face is not linear that far): halve it
             # from the accepted point, or, with no relinearisation left, take the accepted point's linearisation
             if it < max_relinearisations:
@@ -687,7 +699,7 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
                  "delta %.2f mm, d %.2f mm, step %.2f sd (%s), residual %.3f mm", it + 1, inner,
                  1e3 * np.sqrt(np.mean(lin.y ** 2)), 1e3 * x[0], 1e3 * x[1], step, most,
                  1e3 * np.sqrt(np.mean(resid ** 2)))
-        if it > 0 and step < STEP_TOL and not raised:
+        if (it > 0 or start is not None) and step < STEP_TOL and not raised:
             converged = True
             break
         if it == max_relinearisations:
