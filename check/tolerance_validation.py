@@ -24,11 +24,13 @@ Spread (:func:`variance_ratio`, :func:`spread_scale`): the same pairs give the s
 their mean over the model's for the same δl*, R̂, with the standard error of a ratio estimator from the
 pairs. A third-order response makes R differ from 1: on the saddle at 20 mm a 256-sample Monte-Carlo
 spreads 0.92 times the model's variance (its draws' own covariance divided out), and the pairs measure
-0.85–0.93 over seeds 1–8 (standard errors 0.013–0.030). The spread's deficit is what keeps the first-order
-RMS median above the Monte-Carlo's: the mean squared change enters every draw's RMS². So the model's
-change is scaled by s = sqrt(1 + w (R̂ − 1)), w = (R̂ − 1)² / ((R̂ − 1)² + se²), R̂ shrunk toward 1 by its
-standard error (a ratio within its noise of 1, as on vault1, leaves the model nearly as it is). The
-model draws e = e₀ + m̂ + s A δl*. Its checks:
+0.85–0.93 over seeds 1–8 (standard errors 0.013–0.030). The mean squared change enters every draw's
+RMS², so that deficit holds the first-order RMS median above the Monte-Carlo's (0.16 of the saddle's
+0.39 mm). So the model's change is scaled by s = sqrt(1 + w (R̂ − 1)),
+w = (R̂ − 1)² / ((R̂ − 1)² + se²), R̂ shrunk toward 1 by its standard error (a ratio within its noise
+of 1, as on vault1, leaves the model nearly as it is). The model draws e = e₀ + m̂ + s A δl*. The
+standard error of P(RMS <= T) below counts the pairs' scatter of the ratio with that of the shift.
+Its checks:
 
 - ``spread_error`` = sqrt(Σ_s ‖δe_s − m̂‖² / Σ_s ‖A δl*_s‖²) − 1, the relative error of the spread
   about the mean that the bands scale with. Paired on the same δl*, its sampling error is small
@@ -36,7 +38,7 @@ model draws e = e₀ + m̂ + s A δl*. Its checks:
   claim against a Monte-Carlo) the result says unreliable: a string that goes slack in half the
   samples, a wrinkle that snaps, halve or double the spread.
 - with T, ``p_within_se``: the model's RMS density at T times the standard error of the shift's
-  effect on the RMS, from the scatter between the pairs. Above :data:`RELIABLE_P` (0.05) the result
+  (and the spread's) effect on the RMS, from the scatter between the pairs. Above :data:`RELIABLE_P` (0.05) the result
   says unreliable: the sampled shift leaves P(RMS <= T) open. That standard error is judged by its
   upper 95 % confidence bound (:attr:`Validation.p_within_bound`): with p pairs the scatter has p − 1
   degrees of freedom: with 2 pairs the bound is 15.9 times the estimate, with 4 pairs 2.9, with the
@@ -59,7 +61,9 @@ continuation. So the samples run on the mesh twice as coarse as the check's
 (:func:`validation_resolution`), about a tenth of the cost, about a median run of their own there
 at the same lengths with its own Jacobian: the nonlinearity they measure is the mattress's, and on
 vault1 and the saddle (8 pairs, seeds 1–3) the shift from 40 mm samples moves P(RMS <= T) of the
-20 mm model as the 20 mm samples' shift does, within 0.005. A Monte-Carlo from the flat mattress (``--samples K``) may also sample other
+20 mm model as the 20 mm samples' shift does, within 0.005. With 32 pairs at the saddle's
+Monte-Carlo median RMS, the 40 mm shift's projection on e₀ is 12–15 % short of the 20 mm one's, which
+lowers P by 0.02–0.03 there (docs/decisions.md, Check). A Monte-Carlo from the flat mattress (``--samples K``) may also sample other
 arrangements of the wrinkles, which no model about the median sees. SI units (m).
 """
 
