@@ -71,3 +71,8 @@ def test_demo_correct_builds_scans_and_corrects_in_a_world_beyond_the_calibratio
     after = c["rms_verified_mm"] if c["rms_verified_mm"] is not None else c["rms_linear_mm"]
     assert after < doc["deviation"]["to_target"]["rms_mm"]      # the corrected lengths land closer to Ŝ than built
     assert (out / "correct" / "design.json").is_file() and (out / "correct" / "calibration" / "calibration.json").is_file()
+    # no false claim: a converged update covers the world; one that does not says so (exit 3) and why
+    u = doc["update"]
+    covers = (u["delta_95_mm"][0] <= truth["world"]["delta_mm"] <= u["delta_95_mm"][1]
+              and u["d_95_mm"][0] <= truth["world"]["d_mm"] <= u["d_95_mm"][1])
+    assert (code == 0 and u["converged"] and covers) or (code == 3 and not u["converged"]), (code, u)
