@@ -39,7 +39,8 @@ from airmat.errors import InputError
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
-__all__ = ["AsBuilt", "correct", "scanned_target", "MAX_DISTANCE", "REGISTRATION", "REREGISTRATIONS", "POSE_TOL"]
+__all__ = ["AsBuilt", "correct", "scanned_target", "MAX_DISTANCE", "REGISTRATION", "REREGISTRATIONS", "POSE_TOL",
+           "FIRST_RELINEARISATIONS"]
 
 log = logging.getLogger(__name__)
 
@@ -151,8 +152,7 @@ def _on_face(posed, xyz, triangles, seed) -> tuple:
     from airmat.asbuilt.deviation_map import deviation_map
 
     to_pred = deviation_map(posed, xyz, triangles, max_distance=MAX_DISTANCE, seed=seed)
-    on = np.isfinite(to_pred.per_point)
-    # its vertex means used only these
+    on = np.isfinite(to_pred.per_point)          # the map's vertex means use only these
     return posed[on], dataclasses.replace(to_pred, per_point=to_pred.per_point[on]), on
 
 
