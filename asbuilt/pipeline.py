@@ -39,7 +39,7 @@ from airmat.errors import InputError
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
-__all__ = ["AsBuilt", "correct", "scanned_target", "MAX_DISTANCE", "REGISTRATION", "REREGISTRATIONS", "POSE_TOL",
+__all__ = ["AsBuilt", "correct", "scanned_face", "scanned_target", "MAX_DISTANCE", "REGISTRATION", "REREGISTRATIONS", "POSE_TOL",
            "FIRST_RELINEARISATIONS"]
 
 log = logging.getLogger(__name__)
@@ -146,6 +146,30 @@ def scanned_target(design, named: str, scanned: str) -> np.ndarray:
     return a.xyz + design.mattress.thickness * n
 
 
+def scanned_face(run) -> tuple:
+    """A prediction's mattress in Ŝ's frame and the face a scanner above it sees.
+
+    Parameters
+    ----------
+    run : airmat.check.inflation_check.CheckRun or airmat.asbuilt.update.Prediction
+        Anything with an ``inflation`` and its ``deviation`` (the alignment to Ŝ).
+
+    Returns
+    -------
+    xyz : ndarray of shape (n, 3)
+        The mattress's vertices (m).
+    surface : str
+        ``"top"`` or ``"bottom"`` (:func:`airmat.asbuilt.true_world.upper_face`).
+    triangles : ndarray of shape (t, 3)
+        That face's triangles.
+    """
+    from airmat.asbuilt.true_world import upper_face
+
+    xyz = run.deviation.apply(run.inflation.xyz)
+    surface, triangles = upper_face(run.inflation.mesh, xyz)
+    return xyz, surface, triangles
+
+
 def _on_face(posed, xyz, triangles, seed) -> tuple:
     """The registered points (M, 3) that lie on the predicted face (within :data:`MAX_DISTANCE`, inside
     its outline), their deviation map against it and the mask (M0,) of ``posed`` they are."""
@@ -168,7 +192,6 @@ def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, par
     registrations onto the updated prediction refuse one the learned shape does not fit.
     """
     from airmat.asbuilt.registration import register
-    from airmat.asbuilt.true_world import upper_face
     from airmat.check.inflation_check import check as run_check
 
     env = check if {"lo95", "hi95"} <= set(check.runs) else \
@@ -177,10 +200,9 @@ def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, par
     best = None
     for which in ("hi95", "lo95"):
         run = env.runs[which]
-        xyz = run.deviation.apply(run.inflation.xyz)
+        xyz, _, faces = scanned_face(run)
         try:
-            reg = register(raw, xyz, upper_face(run.inflation.mesh, xyz)[1], seed=seed, units=units, name=name,
-                           **REGISTRATION)
+            reg = register(raw, xyz, faces, seed=seed, units=units, name=name, **REGISTRATION)
         except InputError as err:
             if "inlier_share" not in err.data:
                 raise
@@ -257,7 +279,6 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     from airmat.asbuilt.correction import correct as correct_lengths
     from airmat.asbuilt.deviation_map import deviation_map
     from airmat.asbuilt.registration import register
-    from airmat.asbuilt.true_world import upper_face
     from airmat.asbuilt.update import update
     from airmat.check.inflation_check import check as run_check
     from airmat.design.design_io import read_design
@@ -269,8 +290,7 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     if check is None:
         check = run_check(design, resolution=resolution, params=params, envelope=False)
     med = check.runs["median"]
-    xyz = med.deviation.apply(med.inflation.xyz)
-    surface, triangles = upper_face(med.inflation.mesh, xyz)
+    xyz, surface, triangles = scanned_face(med)
     notes = []
     target = scanned_target(design, check.surface, surface)
     if surface != check.surface:
@@ -309,8 +329,7 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
         if registrations > REREGISTRATIONS:
             moved = np.inf
         else:
-            learned = upd.prediction.deviation.apply(upd.prediction.inflation.xyz)
-            _, learned_faces = upper_face(upd.prediction.inflation.mesh, learned)
+            learned, _, learned_faces = scanned_face(upd.prediction)
             again = register(raw, learned, learned_faces, seed=seed, name=name, init=(reg.rotation, reg.translation),
                              units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION)
             registrations += 1

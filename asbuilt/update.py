@@ -600,6 +600,23 @@ def _linearised(design, point: Prediction, strings, surface, params) -> Predicti
     return replace(point, jacobian=lin.face, reach=reach, give=give)
 
 
+def _message(converged: bool, linearisations: int, stationary, raised: bool, step: float) -> str:
+    """The update's one-line verdict; ``stationary``: (misfit, scatter) (m) where no step descends, or None."""
+    if converged:
+        return f"converged after {linearisations} linearisations" + (
+            "" if stationary is None else " (no descent beyond a quarter sd from the accepted point)")
+    if stationary is not None:
+        misfit, scatter = stationary
+        return (f"not converged: no descent from a point where the scan lies {1e3 * misfit:.2f} mm RMS from the "
+                f"prediction, {misfit / scatter:.0f} times its own scatter at the vertices (another equilibrium "
+                "or a wrong registration?)")
+    if raised:
+        return "not converged: the last step raised the MAP objective (the accepted point's linearisation is kept)"
+    if linearisations > 1:
+        return f"not converged: the last step was {step:.2f} posterior sd (tolerance {STEP_TOL})"
+    return "one linearisation (no relinearisation asked)"
+
+
 def update(design, points, *, check=None, resolution: float = 0.020, params: Parameters = Parameters(),
            cut_tolerance: float = 0.003, cut_distribution: str = "uniform",
            max_relinearisations: int = 2, max_points: int | None = MAX_POINTS, n_samples: int = 2000, seed: int = 0,
@@ -634,8 +651,7 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         An update of the same design with the same check whose last linearisation point this one
         starts from (the points re-registered onto its prediction, :func:`airmat.asbuilt.pipeline.correct`);
         it converges without a new inflation when the MAP there lies within :data:`STEP_TOL` of that
-        point in every parameter. ``rms_before`` is still the scan's
-        misfit from the design's median run.
+        point in every parameter. ``rms_before`` is still the scan's misfit from the design's median run.
 
     Returns
     -------
@@ -675,9 +691,10 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
         x = np.concatenate([point.theta, point.error])
     names = ("delta", "d") + tuple(f"string {st.dash.id}" for st in design.pattern.strings)
     raised = False                 # the last step raised the objective and was not taken
-    stationary = False             # steps from the accepted point raise the objective down to STEP_TOL
-    fits = False                   # ... and the scan's misfit there is within STATIONARY_FIT of its scatter
+    stationary = None              # (misfit, scatter) (m) where steps from the accepted point raise the
+                                   # objective down to STEP_TOL
     best = None                    # the accepted linearisation: (its point's parameters, _Linear, ScanData, point)
+    sd = None                      # the posterior sd of the last MAP (set with ``best``)
     for it in range(max_relinearisations + 1):
         data, lin = _linearisation(point, faces, points)
         at = np.concatenate([point.theta, point.error])
@@ -693,22 +710,19 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
                 # halved that far the step is within a quarter sd of the accepted point in every parameter
                 # and still raises the objective: no descent left from there, which is where it stops, and
                 # converged if the scan lies there about as near its prediction as the scan's own scatter
-                stationary = True
-                misfit = float(np.sqrt(np.mean(best[1].y ** 2)))
-                scatter = float(np.sqrt(np.mean(best[1].var_scan)))
-                fits = misfit <= STATIONARY_FIT * scatter
+                stationary = (float(np.sqrt(np.mean(best[1].y ** 2))), float(np.sqrt(np.mean(best[1].var_scan))))
             elif it < max_relinearisations:
                 log.info("as-built update, linearisation %d: the step raised the MAP objective, halved", it + 1)
                 point = _predict(design, check, strings, back[:2], back[2:], surface, params)
                 inflations += 1
                 continue
             at, lin, data, point = best
-            raised = not stationary
+            raised = stationary is None
         best = (at, lin, data, point)
         x_old, x = x, at
         x, joint, resid, tau2, inner = _map(design, lin, x, prior_mean, prior_prec, tau2, k)
         sd = np.sqrt(np.maximum(np.diag(joint), 1e-300))
-        if stationary:
+        if stationary is not None:
             x = at                 # the accepted point, with its linearisation's covariance
         moved = np.abs(x - x_old) / sd
         step, most = float(np.max(moved)), names[int(np.argmax(moved))]
@@ -717,8 +731,8 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
                  "delta %.2f mm, d %.2f mm, step %.2f sd (%s), residual %.3f mm", it + 1, inner,
                  1e3 * np.sqrt(np.mean(lin.y ** 2)), 1e3 * x[0], 1e3 * x[1], step, most,
                  1e3 * np.sqrt(np.mean(resid ** 2)))
-        if stationary:
-            converged = fits
+        if stationary is not None:
+            converged = stationary[0] <= STATIONARY_FIT * stationary[1]
             break
         if (it > 0 or start is not None) and step < STEP_TOL and not raised:
             converged = True
@@ -727,15 +741,7 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
             break
         point = _predict(design, check, strings, x[:2], x[2:], surface, params)
         inflations += 1
-    message = (f"converged after {len(history)} linearisations" + (" (no descent beyond a quarter sd from the accepted "
-                                                                    "point)" if stationary else "") if converged else
-               f"not converged: no descent from a point where the scan lies {1e3 * misfit:.2f} mm RMS from the "
-               f"prediction, {misfit / scatter:.0f} times its own scatter at the vertices (another equilibrium or "
-               "a wrong registration?)" if stationary else
-               "not converged: the last step raised the MAP objective (the accepted point's linearisation is "
-               "kept)" if raised else
-               f"not converged: the last step was {step:.2f} posterior sd (tolerance {STEP_TOL})"
-               if len(history) > 1 else "one linearisation (no relinearisation asked)")
+    message = _message(converged, len(history), stationary, raised, step)
     if not converged:
         log.warning("as-built update: %s", message)
         if strict:
