@@ -182,8 +182,8 @@ def _on_face(posed, xyz, triangles, seed) -> tuple:
 
 def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, params):
     """The first registration onto the check's lo95 or hi95 prediction when the median's refused the scan:
-    (Registration, "lo95" or "hi95"), the one with the larger share of inliers; ``refusal`` raised again
-    when both refuse it too.
+    (Registration, "lo95" or "hi95", (vertices, triangles) of that face), the one with the larger share of
+    inliers; ``refusal`` raised again when both refuse it too.
 
     A mattress built in a world beyond the calibration's 95 % intervals can lie farther from the median
     prediction than a scan of another design does (refined vault1 in ``bench/bench_correct.py``'s world,
@@ -208,12 +208,88 @@ def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, par
                 raise
             continue
         if best is None or reg.inlier_share > best[0].inlier_share:
-            best = (reg, which)
+            best = (reg, which, (xyz, faces))
     if best is None:
         raise refusal
     log.info("as-built: the scan registered onto the %s prediction (%.1f mm RMS, %.0f %% inliers)", best[1],
              1e3 * best[0].rms, 100 * best[0].inlier_share)
     return best
+
+
+@dataclass(frozen=True)
+class _Alternation:
+    """Where registration and update ended together, and what it took."""
+
+    registration: object
+    update: object
+    points: np.ndarray
+    to_prediction: object
+    linearisations: int
+    inflations: int
+    registrations: int
+    updates: int
+
+
+def _round(reg, start, settled, *, design, raw, xyz, triangles, check, resolution, params, cut_tolerance, seed,
+           relin, **_) -> tuple:
+    """One update from the pose ``reg`` carried on from ``start``: (Update, points on the face, their deviation map
+    against the prediction, their mask over ``raw``); the whole budget ``relin`` once ``settled``, else
+    :data:`FIRST_RELINEARISATIONS`."""
+    from airmat.asbuilt.update import update
+
+    posed = reg.apply(raw)
+    pts, to_pred, on = _on_face(posed, xyz, triangles, seed)
+    upd = update(design, pts, check=check, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
+                 seed=seed, max_relinearisations=relin if settled else min(relin, FIRST_RELINEARISATIONS), start=start)
+    return upd, pts, to_pred, on
+
+
+def _reregister(reg, upd, raw, name, seed):
+    """The scan registered again onto ``upd``'s prediction, from the pose ``reg``."""
+    from airmat.asbuilt.registration import register
+
+    learned, _, learned_faces = scanned_face(upd.prediction)
+    return register(raw, learned, learned_faces, seed=seed, name=name, init=(reg.rotation, reg.translation),
+                    units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION)
+
+
+def _alternate(reg, *, first=None, **kw) -> _Alternation:
+    """Update from the pose ``reg``, register the scan again onto the updated prediction, and repeat until the pose
+    holds (:data:`POSE_TOL`, at most :data:`REREGISTRATIONS` more), each round's update carried on from the last
+    (:data:`FIRST_RELINEARISATIONS` a round); then the update with its whole budget ``kw["relin"]``.
+
+    ``kw``: ``design`` and ``check`` of the scanned face; ``xyz``, ``triangles`` the design's prediction
+    (:func:`scanned_face`), onto which the points are reduced; the scan ``raw`` and its ``name``, and the update's
+    settings (:func:`_round`). ``first``: the first round's result at ``reg`` and the registration after it
+    (:func:`_reregister`), when made already.
+    """
+    raw = kw["raw"]
+    upd, linearisations, inflations, registrations, updates = None, 0, 0, 1, 0
+    settled = kw["relin"] == 0         # the pose holds: the update alone, with its whole budget
+    while True:
+        upd, pts, to_pred, on = first[:4] if first is not None else _round(reg, upd, settled, **kw)
+        posed = reg.apply(raw)
+        linearisations, inflations, updates = linearisations + upd.iterations, inflations + upd.inflations, updates + 1
+        if settled:
+            break
+        if registrations > REREGISTRATIONS:
+            moved = np.inf
+        else:
+            again = first[4] if first is not None else _reregister(reg, upd, raw, kw["name"], kw["seed"])
+            registrations += 1
+            moved = float(np.sqrt(np.mean(np.sum((again.apply(raw[on]) - posed[on]) ** 2, axis=1))))
+            log.info("as-built: registered again onto the updated prediction, the points moved %.2f mm RMS and lie "
+                     "%.2f mm RMS from it", 1e3 * moved, 1e3 * again.rms)
+        first = None
+        if moved >= POSE_TOL and registrations <= REREGISTRATIONS:
+            reg = again
+            continue
+        settled = True
+        if upd.converged:
+            break
+    return _Alternation(registration=reg, update=upd, points=pts, to_prediction=to_pred,
+                        linearisations=linearisations, inflations=inflations, registrations=registrations,
+                        updates=updates)
 
 
 def _scan_points(scan, scan_units, seed) -> tuple:
@@ -279,7 +355,6 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     from airmat.asbuilt.correction import correct as correct_lengths
     from airmat.asbuilt.deviation_map import deviation_map
     from airmat.asbuilt.registration import register
-    from airmat.asbuilt.update import update
     from airmat.check.inflation_check import check as run_check
     from airmat.design.design_io import read_design
 
@@ -297,12 +372,14 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
         notes.append(f"the scanner sees the {surface} face, Ŝ is the {check.surface} face's target: the scan is "
                      f"compared with Ŝ moved the mattress's thickness up, and the correction lands the {surface} "
                      "face there")
+    reference = (xyz, triangles)                 # the face the first registration fits
     try:
         reg = register(raw, xyz, triangles, seed=seed, units=units, name=name, **REGISTRATION)
     except InputError as err:
         if "inlier_share" not in err.data:       # not a mismatch of shapes (a unit, a bad array): as it is
             raise
-        reg, which = _register_on_envelope(design, check, raw, err, seed=seed, units=units, name=name, params=params)
+        reg, which, reference = _register_on_envelope(design, check, raw, err, seed=seed, units=units, name=name,
+                                                      params=params)
         notes.append(f"the scan did not fit the design's median prediction ({err.message}); it was registered "
                      f"first onto its {which} prediction, then onto what the update learned")
     if reg.n_equivalent > 1:
@@ -315,37 +392,38 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
     from airmat.asbuilt.update import MAX_RELINEARISATIONS
 
     relin = MAX_RELINEARISATIONS if max_relinearisations is None else max_relinearisations
-    upd, linearisations, inflations, registrations, updates = None, 0, 0, 1, 0
-    settled = relin == 0               # the pose holds: the update alone, with its whole budget
-    while True:
-        posed = reg.apply(raw)
-        pts, to_pred, on = _on_face(posed, xyz, triangles, seed)
-        upd = update(seen, pts, check=scanned, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
-                     seed=seed, max_relinearisations=relin if settled else min(relin, FIRST_RELINEARISATIONS),
-                     start=upd)
-        linearisations, inflations, updates = linearisations + upd.iterations, inflations + upd.inflations, updates + 1
-        if settled:
-            break
-        if registrations > REREGISTRATIONS:
-            moved = np.inf
-        else:
-            learned, _, learned_faces = scanned_face(upd.prediction)
-            again = register(raw, learned, learned_faces, seed=seed, name=name, init=(reg.rotation, reg.translation),
-                             units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION)
-            registrations += 1
-            moved = float(np.sqrt(np.mean(np.sum((again.apply(raw[on]) - posed[on]) ** 2, axis=1))))
-            log.info("as-built: registered again onto the updated prediction, the points moved %.2f mm RMS",
-                     1e3 * moved)
-        if moved >= POSE_TOL and registrations <= REREGISTRATIONS:
-            reg = again
-            continue
-        settled = True
-        if upd.converged:
-            break
-    if updates > 1:
-        head = f"converged after {linearisations} linearisations" if upd.converged else upd.message
-        upd = dataclasses.replace(upd, iterations=linearisations, inflations=inflations,
-                                  message=f"{head} in {updates} rounds, {registrations} registrations",
+    kw = dict(design=seen, raw=raw, name=name, xyz=xyz, triangles=triangles, check=scanned, resolution=resolution,
+              params=params, cut_tolerance=cut_tolerance, seed=seed, relin=relin)
+    first = None
+    if reg.alternatives and relin > 0:
+        # a near-symmetric shape built off its prediction can fit a turned pose about as well as the true one, and
+        # the two part only once the prediction moves towards the built shape: each pose's first round of the
+        # update, and the one whose fitted residual is least goes on
+        poses = [reg]
+        for rot, trans in reg.alternatives:
+            try:
+                poses.append(register(raw, *reference, seed=seed, name=name, init=(rot, trans),
+                                      units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION))
+            except InputError:
+                continue
+        rounds = [_round(p, None, False, **kw) for p in poses]
+        rounds = [r + (_reregister(p, r[0], raw, name, seed),) for p, r in zip(poses, rounds)]
+        misfit = [r[4].rms for r in rounds]
+        best = int(np.argmin(misfit))
+        log.info("as-built: %d poses of the scan, registered again after one round of the update: %s mm RMS from "
+                 "its prediction", len(poses), ", ".join(f"{1e3 * m:.2f}" for m in misfit))
+        if best > 0:
+            notes.append(f"{len(poses)} poses of the scan fit the design's prediction about as well; after one round "
+                         f"of the update the scan lies {1e3 * misfit[best]:.2f} mm RMS from the updated prediction "
+                         f"in the registration's alternative {best} against {1e3 * misfit[0]:.2f} mm in its first "
+                         "pose: the alternative is kept")
+        reg, first = poses[best], rounds[best]
+    found = _alternate(reg, first=first, **kw)
+    upd, reg, pts, to_pred = found.update, found.registration, found.points, found.to_prediction
+    if found.updates > 1:
+        head = f"converged after {found.linearisations} linearisations" if upd.converged else upd.message
+        upd = dataclasses.replace(upd, iterations=found.linearisations, inflations=found.inflations,
+                                  message=f"{head} in {found.updates} rounds, {found.registrations} registrations",
                                   seconds=time.perf_counter() - started)
     to_target = deviation_map(pts, target, design.approx.faces, max_distance=MAX_DISTANCE, seed=seed)
     corr = correct_lengths(seen, upd, check=scanned, keep_tolerance=keep_tolerance, verify=verify, params=params)

@@ -39,7 +39,7 @@ from airmat.calib.point_normals import normals_knn
 from airmat.errors import InputError
 from airmat.summary import Summarized
 
-__all__ = ["Registration", "register", "robust_extent", "sample_surface"]
+__all__ = ["Registration", "register", "robust_extent", "sample_surface", "ALTERNATIVE_SHARE"]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +57,11 @@ _MAX_ITER_LEVEL, _MAX_ITER = 50, 250
 #: a level of the final ICP ends when a step moves no point by more than this share of the span
 #: (10 µm on a 1 m mattress: 1 % of the 1 mm the registration must reach)
 _TOL = 1e-5
+#: a start's pose is an alternative (:attr:`Registration.alternatives`) when it keeps at least this share of the
+#: best start's inliers: on vault1 built at Δ = 22, d = 75 mm (its design's medians 17.9, 69.8 mm) with ±3 mm
+#: ties (``docs/guide/correct.md``'s example) the true pose's start holds 14 488 inliers within 30 mm of the
+#: median prediction, the half-turned one 14 637 (99 %), the next distinct pose 6 851 (47 %)
+ALTERNATIVE_SHARE = 0.9
 #: the scan normal's largest angle from the reference's (degrees) on the last levels of the annealing
 _MAX_NORMAL_DEG, _NORMAL_GATE_LEVELS = 30.0, 2
 
@@ -92,6 +97,11 @@ class Registration(Summarized):
         more on a symmetric shape.
     message : str
         What was detected and removed, in words.
+    alternatives : tuple of (ndarray of shape (3, 3), ndarray of shape (3,))
+        Other distinct poses (rotation, translation (m), after the unit factor) whose starts hold at least
+        :data:`ALTERNATIVE_SHARE` of the best one's inliers, most inliers first: starts (``init``) to try
+        when the pose kept proves wrong later (a built mattress that differs from its prediction can fit
+        the half-turned pose of a near-symmetric shape slightly better than the true one).
     """
 
     rotation: np.ndarray
@@ -105,6 +115,7 @@ class Registration(Summarized):
     iterations: int
     n_equivalent: int
     message: str
+    alternatives: tuple = ()
 
     def apply(self, points: np.ndarray) -> np.ndarray:
         """Scan points (N, 3), in the scan's unit, mapped into the reference's frame (m)."""
@@ -240,11 +251,13 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
     inliers = np.array([fit.inliers(pts, r, t, inlier_distance) for r, t, *_ in trials])
     best = int(np.argmax(inliers.sum(axis=1)))
     n_eq = _n_equivalent(trials, inliers, best, pts, inlier_distance)
+    alternatives = _alternatives(trials, inliers.sum(axis=1), best, pts, inlier_distance)
     # the final fit on scan points, not voxel centroids: a centroid lies up to half a voxel inside the
     # mattress's outline, which would leave the slide the outline fixes that much slack
     rot, trans, iters, converged = fit.icp(cloud.points, *trials[best][:2], ladder[-2:], normals=cloud.normals)
     reg = Registration(rotation=rot, translation=trans, scale=scale, converged=converged,
                        iterations=iters + trials[best][2], n_equivalent=n_eq, message=cloud.message,
+                       alternatives=alternatives,
                        **_assess(fit, cloud.points @ rot.T + trans, inlier_distance, voxel))
     _refuse_mismatch(reg, name, inlier_distance, min_inlier_share, max_rms, min_coverage)
     if n_eq > 1:
@@ -515,6 +528,20 @@ def _n_equivalent(trials, inliers, best, pts, inlier_distance) -> int:
         if not any(np.abs(pts @ (r - r2).T + (t - t2)).max() < inlier_distance for r2, t2 in poses):
             poses.append((r, t))
     return max(1, len(poses))
+
+
+def _alternatives(trials, counts, best, pts, inlier_distance) -> tuple:
+    """The distinct poses other than the best's among the starts with at least :data:`ALTERNATIVE_SHARE` of its
+    inlier count ``counts[best]``, most inliers first: ((rotation, translation), ...). Two poses are the same
+    when they place every point of ``pts`` within ``inlier_distance`` of each other."""
+    kept = [trials[best][:2]]
+    for i in np.argsort(-counts, kind="stable"):
+        r, t = trials[i][:2]
+        if counts[i] < ALTERNATIVE_SHARE * counts[best]:
+            break
+        if not any(np.abs(pts @ (r - r2).T + (t - t2)).max() < inlier_distance for r2, t2 in kept):
+            kept.append((r, t))
+    return tuple(kept[1:])
 
 
 def _assess(fit, p, inlier_distance, voxel) -> dict:

@@ -156,6 +156,10 @@ def test_a_symmetric_shape_reports_its_equivalent_poses():
     # which are not rotations, do not count): two poses
     assert reg.n_equivalent == 2
     assert reg.rms < 3 * NOISE
+    # the other pose is offered as a start: turned by half a turn about the normal, every point moved
+    assert len(reg.alternatives) == 1
+    (r, t), = reg.alternatives
+    assert np.degrees(np.arccos(np.clip((np.trace(r.T @ reg.rotation) - 1) / 2, -1, 1))) > 170
 
 
 @pytest.mark.slow
