@@ -250,7 +250,7 @@ def _reregister(reg, upd, raw, name, seed):
 
     learned, _, learned_faces = scanned_face(upd.prediction)
     return register(raw, learned, learned_faces, seed=seed, name=name, init=(reg.rotation, reg.translation),
-                    units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION)
+                    local=True, units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION)
 
 
 def _alternate(reg, *, first=None, **kw) -> _Alternation:

@@ -186,7 +186,7 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
              units: str = "auto", voxel: float | None = None, inlier_distance: float = 0.015,
              min_inlier_share: float = 0.8, max_rms: float | None = None, min_coverage: float = 0.5,
              n_reference_samples: int = 200_000, remove_floor: bool = True,
-             init: tuple | None = None, name: str = "the scan") -> Registration:
+             init: tuple | None = None, local: bool = False, name: str = "the scan") -> Registration:
     """Register a scan onto a reference surface (the predicted inflated top face), robustly.
 
     Parameters
@@ -217,6 +217,11 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
         Search the support plane and drop its points.
     init : (rotation, translation), optional
         A start (after the unit factor) instead of the principal-axes starts.
+    local : bool
+        With ``init``: no annealed search from it (whose first Tukey scale, a quarter of the diagonal, lets a
+        1 500-point subset carry the pose centimetres away) and no final level at twice ``inlier_distance`` (whose
+        optimum lies degrees from the last one's), only the final ICP at ``inlier_distance``. For a start within
+        about ``inlier_distance`` of the pose: the same scan registered before onto a nearby reference.
     name : str
         The scan's name in error messages.
 
@@ -243,18 +248,22 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
     cloud = _prepare(scan * scale, voxel, remove_floor=remove_floor, seed=seed, name=name)
     pts, normals = cloud.voxels, cloud.voxel_normals
     starts = [init] if init is not None else _pca_starts(_largest_part(pts, 3 * voxel), fit.pts)
-    pick = np.random.default_rng(seed).permutation(len(pts))[:_N_START]
     ladder = _ladder(0.25 * diag, inlier_distance)
-    coarse = _Fit(ref_v, ref_f, _N_COARSE_SAMPLES, seed)   # the starts need no fine reference
-    trials = [coarse.icp(pts[pick], *start, ladder, normals=normals[pick], max_iter_level=_START_ITER_LEVEL,
-                         tol=_START_TOL) for start in starts]
+    if init is not None and local:
+        trials = [(np.asarray(init[0], dtype=float), np.asarray(init[1], dtype=float), 0, True)]
+    else:
+        pick = np.random.default_rng(seed).permutation(len(pts))[:_N_START]
+        coarse = _Fit(ref_v, ref_f, _N_COARSE_SAMPLES, seed)   # the starts need no fine reference
+        trials = [coarse.icp(pts[pick], *start, ladder, normals=normals[pick], max_iter_level=_START_ITER_LEVEL,
+                             tol=_START_TOL) for start in starts]
     inliers = np.array([fit.inliers(pts, r, t, inlier_distance) for r, t, *_ in trials])
     best = int(np.argmax(inliers.sum(axis=1)))
     n_eq = _n_equivalent(trials, inliers, best, pts, inlier_distance)
     alternatives = _alternatives(trials, inliers.sum(axis=1), best, pts, inlier_distance)
     # the final fit on scan points, not voxel centroids: a centroid lies up to half a voxel inside the
     # mattress's outline, which would leave the slide the outline fixes that much slack
-    rot, trans, iters, converged = fit.icp(cloud.points, *trials[best][:2], ladder[-2:], normals=cloud.normals)
+    rot, trans, iters, converged = fit.icp(cloud.points, *trials[best][:2], ladder[-1:] if init is not None and local
+                                           else ladder[-2:], normals=cloud.normals)
     reg = Registration(rotation=rot, translation=trans, scale=scale, converged=converged,
                        iterations=iters + trials[best][2], n_equivalent=n_eq, message=cloud.message,
                        alternatives=alternatives,

@@ -139,6 +139,22 @@ def test_partial_coverage_and_upside_down():
     assert 0.4 < reg.coverage < 0.85
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.01])
+def test_a_local_registration_from_a_near_pose_refines_it_without_a_search(offset):
+    """From the pose found (or 10 mm and 0.5° off it), ``local=True`` refines at the inlier distance alone:
+    the same pose within the noise, in a handful of ICP steps."""
+    v, f = reference_mesh("cylinder")
+    pts, top = synthetic_scan("cylinder", seed=2)
+    moved = move(pts, 2)
+    reg = register(moved, v, f, seed=0)
+    turn = Rotation.from_euler("z", 0.5 * (offset > 0), degrees=True).as_matrix()
+    again = register(moved, v, f, seed=0, init=(turn @ reg.rotation, turn @ reg.translation + [offset, 0, 0]),
+                     local=True)
+    assert recovered_rms(again, moved[top], pts[top]) < 1e-3
+    assert recovered_rms(again, moved[top], reg.apply(moved[top])) < (2e-4 if offset == 0 else 1e-3)
+    assert again.iterations < reg.iterations / 3 and again.alternatives == ()
+
+
 def test_same_seed_same_result():
     v, f = reference_mesh("saddle")
     pts, _ = synthetic_scan("saddle", seed=6, n=8_000)
