@@ -59,6 +59,7 @@ from airmat.design.curvature import vertex_normals
 from airmat.errors import InputError
 from airmat.inflation.energy import spring_profile
 from airmat.inflation.model import Parameters
+from airmat.progress import residual_progress
 from airmat.summary import Summarized, mm
 
 __all__ = ["Prediction", "Update", "update", "known_face_update", "world_slopes",
@@ -694,52 +695,54 @@ def update(design, points, *, check=None, resolution: float = 0.020, params: Par
                                    # objective down to STEP_TOL
     best = None                    # the accepted linearisation: (its point's parameters, _Linear, ScanData, point)
     sd = None                      # the posterior sd of the last MAP (set with ``best``)
-    for it in range(max_relinearisations + 1):
-        data, lin = _linearisation(point, faces, points)
-        at = np.concatenate([point.theta, point.error])
-        if rms_before is None:
-            rms_before = float(np.sqrt(np.mean(lin.y ** 2)))
-            tau2 = rms_before ** 2
-        elif best is not None and (_objective(lin, at, prior_mean, prior_prec, tau2)
-                                   > _objective(best[1], best[0], prior_mean, prior_prec, tau2)):
-            # the Gauss–Newton step raised the exact objective (the face is not linear that far): halve it
-            # from the accepted point, or, with no relinearisation left, take the accepted point's linearisation
-            back = 0.5 * (best[0] + at)
-            if np.max(np.abs(back - best[0]) / sd) < STEP_TOL:
-                # halved that far the step is within a quarter sd of the accepted point in every parameter
-                # and still raises the objective: no descent left from there, which is where it stops, and
-                # converged if the scan lies there about as near its prediction as the scan's own scatter
-                stationary = (float(np.sqrt(np.mean(best[1].y ** 2))), float(np.sqrt(np.mean(best[1].var_scan))))
-            elif it < max_relinearisations:
-                log.info("as-built update, linearisation %d: the step raised the MAP objective, halved", it + 1)
-                point = _predict(design, check, strings, back[:2], back[2:], surface, params)
-                inflations += 1
-                continue
-            at, lin, data, point = best
-            raised = stationary is None
-        best = (at, lin, data, point)
-        x_old, x = x, at
-        x, joint, resid, tau2, inner = _map(design, lin, x, prior_mean, prior_prec, tau2, k)
-        sd = np.sqrt(np.maximum(np.diag(joint), 1e-300))
-        if stationary is not None:
-            x = at                 # the accepted point, with its linearisation's covariance
-        moved = np.abs(x - x_old) / sd
-        step, most = float(np.max(moved)), names[int(np.argmax(moved))]
-        history.append(x[:2])
-        log.info("as-built update, linearisation %d (%d inner steps): scan %.3f mm RMS from the prediction; "
-                 "delta %.2f mm, d %.2f mm, step %.2f sd (%s), residual %.3f mm", it + 1, inner,
-                 1e3 * np.sqrt(np.mean(lin.y ** 2)), 1e3 * x[0], 1e3 * x[1], step, most,
-                 1e3 * np.sqrt(np.mean(resid ** 2)))
-        if stationary is not None:
-            converged = stationary[0] <= STATIONARY_FIT * stationary[1]
-            break
-        if (it > 0 or start is not None) and step < STEP_TOL and not raised:
-            converged = True
-            break
-        if it == max_relinearisations:
-            break
-        point = _predict(design, check, strings, x[:2], x[2:], surface, params)
-        inflations += 1
+    with residual_progress(STEP_TOL, desc="as-built update (step in posterior sd)") as bar:
+        for it in range(max_relinearisations + 1):
+            data, lin = _linearisation(point, faces, points)
+            at = np.concatenate([point.theta, point.error])
+            if rms_before is None:
+                rms_before = float(np.sqrt(np.mean(lin.y ** 2)))
+                tau2 = rms_before ** 2
+            elif best is not None and (_objective(lin, at, prior_mean, prior_prec, tau2)
+                                       > _objective(best[1], best[0], prior_mean, prior_prec, tau2)):
+                # the Gauss–Newton step raised the exact objective (the face is not linear that far): halve it
+                # from the accepted point, or, with no relinearisation left, take the accepted point's linearisation
+                back = 0.5 * (best[0] + at)
+                if np.max(np.abs(back - best[0]) / sd) < STEP_TOL:
+                    # halved that far the step is within a quarter sd of the accepted point in every parameter
+                    # and still raises the objective: no descent left from there, which is where it stops, and
+                    # converged if the scan lies there about as near its prediction as the scan's own scatter
+                    stationary = (float(np.sqrt(np.mean(best[1].y ** 2))), float(np.sqrt(np.mean(best[1].var_scan))))
+                elif it < max_relinearisations:
+                    log.info("as-built update, linearisation %d: the step raised the MAP objective, halved", it + 1)
+                    point = _predict(design, check, strings, back[:2], back[2:], surface, params)
+                    inflations += 1
+                    continue
+                at, lin, data, point = best
+                raised = stationary is None
+            best = (at, lin, data, point)
+            x_old, x = x, at
+            x, joint, resid, tau2, inner = _map(design, lin, x, prior_mean, prior_prec, tau2, k)
+            sd = np.sqrt(np.maximum(np.diag(joint), 1e-300))
+            if stationary is not None:
+                x = at                 # the accepted point, with its linearisation's covariance
+            moved = np.abs(x - x_old) / sd
+            step, most = float(np.max(moved)), names[int(np.argmax(moved))]
+            history.append(x[:2])
+            bar.residual(max(step, 1e-12))
+            log.info("as-built update, linearisation %d (%d inner steps): scan %.3f mm RMS from the prediction; "
+                     "delta %.2f mm, d %.2f mm, step %.2f sd (%s), residual %.3f mm", it + 1, inner,
+                     1e3 * np.sqrt(np.mean(lin.y ** 2)), 1e3 * x[0], 1e3 * x[1], step, most,
+                     1e3 * np.sqrt(np.mean(resid ** 2)))
+            if stationary is not None:
+                converged = stationary[0] <= STATIONARY_FIT * stationary[1]
+                break
+            if (it > 0 or start is not None) and step < STEP_TOL and not raised:
+                converged = True
+                break
+            if it == max_relinearisations:
+                break
+            point = _predict(design, check, strings, x[:2], x[2:], surface, params)
+            inflations += 1
     message = _message(converged, len(history), stationary, raised, step)
     if not converged:
         log.warning("as-built update: %s", message)

@@ -314,3 +314,18 @@ def test_the_updated_posterior_is_a_calibration_folder(small_update, small_world
     assert back.specimens[0].scan == base.specimens[0].scan
     with pytest.raises(InputError, match="not a calibration folder"):
         updated_calibration(small_update, small_world.design)
+
+
+def test_the_update_shows_its_steps_on_a_progress_bar(small_world, capsys):
+    """With progress bars on (a terminal), the relinearisations fill a bar as the step falls to STEP_TOL sd."""
+    from airmat.progress import set_progress
+
+    w = small_world
+    set_progress(True)
+    try:
+        u = update(w.design, w.points, check=w.check, cut_tolerance=0.003, max_relinearisations=1, seed=1)
+    finally:
+        set_progress(None)
+    err = capsys.readouterr().err
+    assert "as-built update (step in posterior sd)" in err and "residual" in err
+    assert u.iterations == 2
