@@ -31,6 +31,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -216,14 +217,23 @@ def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, par
     return best
 
 
+class _Round(NamedTuple):
+    """One update from a pose: the update, the scan points on the predicted face, their deviation map against it,
+    their mask over the scan, and the scan registered again onto the updated prediction (None until made)."""
+
+    update: object
+    points: np.ndarray
+    to_prediction: object
+    on: np.ndarray
+    again: object = None
+
+
 @dataclass(frozen=True)
 class _Alternation:
     """Where registration and update ended together, and what it took."""
 
     registration: object
-    update: object
-    points: np.ndarray
-    to_prediction: object
+    last: _Round
     linearisations: int
     inflations: int
     registrations: int
@@ -231,17 +241,20 @@ class _Alternation:
 
 
 def _round(reg, start, settled, *, design, raw, xyz, triangles, check, resolution, params, cut_tolerance, seed,
-           relin, **_) -> tuple:
-    """One update from the pose ``reg`` carried on from ``start``: (Update, points on the face, their deviation map
-    against the prediction, their mask over ``raw``); the whole budget ``relin`` once ``settled``, else
+           relin, **_) -> _Round:
+    """One update from the pose ``reg`` carried on from ``start``; the whole budget ``relin`` once ``settled``, else
     :data:`FIRST_RELINEARISATIONS`."""
     from airmat.asbuilt.update import update
 
-    posed = reg.apply(raw)
-    pts, to_pred, on = _on_face(posed, xyz, triangles, seed)
+    pts, to_pred, on = _on_face(reg.apply(raw), xyz, triangles, seed)
     upd = update(design, pts, check=check, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
                  seed=seed, max_relinearisations=relin if settled else min(relin, FIRST_RELINEARISATIONS), start=start)
-    return upd, pts, to_pred, on
+    return _Round(upd, pts, to_pred, on)
+
+
+def _units(reg) -> str:
+    """``register``'s ``units`` that keeps the unit factor ``reg`` found."""
+    return "same" if reg.scale == 1.0 else "m-as-mm"
 
 
 def _reregister(reg, upd, raw, name, seed):
@@ -250,7 +263,7 @@ def _reregister(reg, upd, raw, name, seed):
 
     learned, _, learned_faces = scanned_face(upd.prediction)
     return register(raw, learned, learned_faces, seed=seed, name=name, init=(reg.rotation, reg.translation),
-                    local=True, units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION)
+                    local=True, units=_units(reg), **REGISTRATION)
 
 
 def _alternate(reg, *, first=None, **kw) -> _Alternation:
@@ -260,24 +273,23 @@ def _alternate(reg, *, first=None, **kw) -> _Alternation:
 
     ``kw``: ``design`` and ``check`` of the scanned face; ``xyz``, ``triangles`` the design's prediction
     (:func:`scanned_face`), onto which the points are reduced; the scan ``raw`` and its ``name``, and the update's
-    settings (:func:`_round`). ``first``: the first round's result at ``reg`` and the registration after it
-    (:func:`_reregister`), when made already.
+    settings (:func:`_round`). ``first``: the first round at ``reg`` (with its ``again``), when made already.
     """
     raw = kw["raw"]
     upd, linearisations, inflations, registrations, updates = None, 0, 0, 1, 0
     settled = kw["relin"] == 0         # the pose holds: the update alone, with its whole budget
     while True:
-        upd, pts, to_pred, on = first[:4] if first is not None else _round(reg, upd, settled, **kw)
-        posed = reg.apply(raw)
+        done = first if first is not None else _round(reg, upd, settled, **kw)
+        upd, on = done.update, done.on
         linearisations, inflations, updates = linearisations + upd.iterations, inflations + upd.inflations, updates + 1
         if settled:
             break
         if registrations > REREGISTRATIONS:
             moved = np.inf
         else:
-            again = first[4] if first is not None else _reregister(reg, upd, raw, kw["name"], kw["seed"])
+            again = done.again if done.again is not None else _reregister(reg, upd, raw, kw["name"], kw["seed"])
             registrations += 1
-            moved = float(np.sqrt(np.mean(np.sum((again.apply(raw[on]) - posed[on]) ** 2, axis=1))))
+            moved = float(np.sqrt(np.mean(np.sum((again.apply(raw[on]) - reg.apply(raw[on])) ** 2, axis=1))))
             log.info("as-built: registered again onto the updated prediction, the points moved %.2f mm RMS and lie "
                      "%.2f mm RMS from it", 1e3 * moved, 1e3 * again.rms)
         first = None
@@ -287,9 +299,41 @@ def _alternate(reg, *, first=None, **kw) -> _Alternation:
         settled = True
         if upd.converged:
             break
-    return _Alternation(registration=reg, update=upd, points=pts, to_prediction=to_pred,
-                        linearisations=linearisations, inflations=inflations, registrations=registrations,
+    return _Alternation(registration=reg, last=done, linearisations=linearisations, inflations=inflations, registrations=registrations,
                         updates=updates)
+
+
+def _choose_pose(reg, reference, **kw) -> tuple:
+    """Of ``reg``'s pose and its alternatives (:attr:`~airmat.asbuilt.registration.Registration.alternatives`),
+    registered onto ``reference`` (vertices, triangles), the one whose scan lies nearest its updated prediction
+    after one round of the update: (Registration, its :class:`_Round` with ``again``, a note or "").
+
+    A near-symmetric shape built off its prediction can fit a turned pose about as well as the true one; the two
+    part once the prediction moves towards the built shape. ``kw`` as :func:`_alternate`'s.
+    """
+    from airmat.asbuilt.registration import register
+
+    raw, name, seed = kw["raw"], kw["name"], kw["seed"]
+    poses = [reg]
+    for rot, trans in reg.alternatives:
+        try:
+            poses.append(register(raw, *reference, seed=seed, name=name, init=(rot, trans), units=_units(reg),
+                                  **REGISTRATION))
+        except InputError:
+            continue
+    rounds = []
+    for p in poses:
+        r = _round(p, None, False, **kw)
+        rounds.append(r._replace(again=_reregister(p, r.update, raw, name, seed)))
+    misfit = [r.again.rms for r in rounds]
+    best = int(np.argmin(misfit))
+    log.info("as-built: %d poses of the scan, registered again after one round of the update: %s mm RMS from "
+             "its prediction", len(poses), ", ".join(f"{1e3 * m:.2f}" for m in misfit))
+    note = "" if best == 0 else (
+        f"{len(poses)} poses of the scan fit the design's prediction about as well; after one round of the update "
+        f"the scan lies {1e3 * misfit[best]:.2f} mm RMS from the updated prediction in the registration's "
+        f"alternative {best} against {1e3 * misfit[0]:.2f} mm in its first pose: the alternative is kept")
+    return poses[best], rounds[best], note
 
 
 def _scan_points(scan, scan_units, seed) -> tuple:
@@ -396,30 +440,11 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
               params=params, cut_tolerance=cut_tolerance, seed=seed, relin=relin)
     first = None
     if reg.alternatives and relin > 0:
-        # a near-symmetric shape built off its prediction can fit a turned pose about as well as the true one, and
-        # the two part only once the prediction moves towards the built shape: each pose's first round of the
-        # update, and the one whose fitted residual is least goes on
-        poses = [reg]
-        for rot, trans in reg.alternatives:
-            try:
-                poses.append(register(raw, *reference, seed=seed, name=name, init=(rot, trans),
-                                      units="same" if reg.scale == 1.0 else "m-as-mm", **REGISTRATION))
-            except InputError:
-                continue
-        rounds = [_round(p, None, False, **kw) for p in poses]
-        rounds = [r + (_reregister(p, r[0], raw, name, seed),) for p, r in zip(poses, rounds)]
-        misfit = [r[4].rms for r in rounds]
-        best = int(np.argmin(misfit))
-        log.info("as-built: %d poses of the scan, registered again after one round of the update: %s mm RMS from "
-                 "its prediction", len(poses), ", ".join(f"{1e3 * m:.2f}" for m in misfit))
-        if best > 0:
-            notes.append(f"{len(poses)} poses of the scan fit the design's prediction about as well; after one round "
-                         f"of the update the scan lies {1e3 * misfit[best]:.2f} mm RMS from the updated prediction "
-                         f"in the registration's alternative {best} against {1e3 * misfit[0]:.2f} mm in its first "
-                         "pose: the alternative is kept")
-        reg, first = poses[best], rounds[best]
+        reg, first, note = _choose_pose(reg, reference, **kw)
+        if note:
+            notes.append(note)
     found = _alternate(reg, first=first, **kw)
-    upd, reg, pts, to_pred = found.update, found.registration, found.points, found.to_prediction
+    upd, reg, pts, to_pred = found.last.update, found.registration, found.last.points, found.last.to_prediction
     if found.updates > 1:
         head = f"converged after {found.linearisations} linearisations" if upd.converged else upd.message
         upd = dataclasses.replace(upd, iterations=found.linearisations, inflations=found.inflations,

@@ -249,7 +249,8 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
     pts, normals = cloud.voxels, cloud.voxel_normals
     starts = [init] if init is not None else _pca_starts(_largest_part(pts, 3 * voxel), fit.pts)
     ladder = _ladder(0.25 * diag, inlier_distance)
-    if init is not None and local:
+    local = init is not None and local
+    if local:
         trials = [(np.asarray(init[0], dtype=float), np.asarray(init[1], dtype=float), 0, True)]
     else:
         pick = np.random.default_rng(seed).permutation(len(pts))[:_N_START]
@@ -262,8 +263,8 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
     alternatives = _alternatives(trials, inliers.sum(axis=1), best, pts, inlier_distance)
     # the final fit on scan points, not voxel centroids: a centroid lies up to half a voxel inside the
     # mattress's outline, which would leave the slide the outline fixes that much slack
-    rot, trans, iters, converged = fit.icp(cloud.points, *trials[best][:2], ladder[-1:] if init is not None and local
-                                           else ladder[-2:], normals=cloud.normals)
+    rot, trans, iters, converged = fit.icp(cloud.points, *trials[best][:2], ladder[-1:] if local else ladder[-2:],
+                                           normals=cloud.normals)
     reg = Registration(rotation=rot, translation=trans, scale=scale, converged=converged,
                        iterations=iters + trials[best][2], n_equivalent=n_eq, message=cloud.message,
                        alternatives=alternatives,
@@ -520,6 +521,12 @@ def _rodrigues(w):
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
 
 
+def _same_pose(pts, a, b, tol) -> bool:
+    """Whether the poses ``a`` and ``b`` ((rotation, translation) each) place every point of ``pts`` within ``tol``
+    of each other."""
+    return bool(np.abs(pts @ (a[0] - b[0]).T + (a[1] - b[1])).max() < tol)
+
+
 def _n_equivalent(trials, inliers, best, pts, inlier_distance) -> int:
     """Distinct poses among the starts that fit as well as the best (1: the pose is unique).
 
@@ -534,7 +541,7 @@ def _n_equivalent(trials, inliers, best, pts, inlier_distance) -> int:
         only_this = np.count_nonzero(mask & ~inliers[best])
         if only_best - only_this > 3 * np.sqrt(only_best + only_this) + 1:
             continue
-        if not any(np.abs(pts @ (r - r2).T + (t - t2)).max() < inlier_distance for r2, t2 in poses):
+        if not any(_same_pose(pts, (r, t), other, inlier_distance) for other in poses):
             poses.append((r, t))
     return max(1, len(poses))
 
@@ -548,7 +555,7 @@ def _alternatives(trials, counts, best, pts, inlier_distance) -> tuple:
         r, t = trials[i][:2]
         if counts[i] < ALTERNATIVE_SHARE * counts[best]:
             break
-        if not any(np.abs(pts @ (r - r2).T + (t - t2)).max() < inlier_distance for r2, t2 in kept):
+        if not any(_same_pose(pts, (r, t), other, inlier_distance) for other in kept):
             kept.append((r, t))
     return tuple(kept[1:])
 
