@@ -17,6 +17,10 @@ from airmat.cli import sigint
 
 sigint.install()  # before anything else, standard library included: Ctrl-C works from the first instant
 
+# C's decimal module (scipy.optimize imports it, seconds into a command) cannot initialize twice: a Ctrl-C during
+# its first import left a second one printing a libmpdec warning on stderr before the "interrupted" line.
+# Imported here, its import is over in the first milliseconds.
+import decimal  # noqa: E402,F401
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import logging  # noqa: E402
