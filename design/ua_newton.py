@@ -40,7 +40,7 @@ import scipy.sparse as sp
 
 from airmat.errors import ConvergenceError
 
-__all__ = ["newton", "MU_MIN", "ARMIJO"]
+__all__ = ["newton", "MU_MIN", "ARMIJO", "MAX_SHIFTS"]
 
 #: smallest Levenberg–Marquardt shift, in units of k_A1 (per edge): far below any edge's stiffness
 MU_MIN = 1e-8
@@ -48,6 +48,9 @@ MU_MIN = 1e-8
 ARMIJO = 1e-4
 #: a step shorter than this (mean edge lengths, largest vertex move) is no progress
 STEP_MIN = 1e-10
+#: shifts tried in one iteration (each ×10 the last) before the relaxation gives up: 40 decades, past where any
+#: finite step shrinks below STEP_MIN
+MAX_SHIFTS = 40
 
 
 class _Pattern:
@@ -187,7 +190,8 @@ def newton(prob, x, *, tol: float, max_iter: int, bar=None, hold: bool = True):
     Raises
     ------
     airmat.errors.ConvergenceError
-        When positions or U_A become non-finite.
+        When positions, U_A or the Newton matrix become non-finite, or when no shift of
+        :data:`MAX_SHIFTS` tried in one iteration gives a definite ``H + μ I`` and a descent step.
     """
     k1 = prob.k[0]
     x = np.array(x, dtype=float)
@@ -213,19 +217,25 @@ def newton(prob, x, *, tol: float, max_iter: int, bar=None, hold: bool = True):
             status = "force"
             break
         hess = _hessian(prob, pattern, x, normal)
+        if not np.isfinite(hess.data).all():
+            raise ConvergenceError("U_A relaxation diverged: non-finite Newton matrix", n_iter=it)
         step = None
-        while step is None:
+        for _ in range(MAX_SHIFTS):
             if not chol.factor(hess, mu):       # definite only to rounding at this shift: a larger one
                 mu *= 10.0
                 continue
             p = _constrained_step(chol, grad, g_rows).reshape(x.shape)
             step = _line_search(prob, x, e, p, float(grad @ p.ravel()))
-            if step is None:
-                if np.abs(p).max() < STEP_MIN * prob.h:
-                    break
-                mu *= 10.0
-            elif step[0] == 1.0:
-                mu = max(mu / 3.0, MU_MIN * k1)
+            if step is not None:
+                if step[0] == 1.0:
+                    mu = max(mu / 3.0, MU_MIN * k1)
+                break
+            if np.abs(p).max() < STEP_MIN * prob.h:
+                break
+            mu *= 10.0
+        else:
+            raise ConvergenceError(f"U_A relaxation: no descent step even with the shift {mu / k1:.3g} k_A1 "
+                                   f"(the Newton matrix indefinite or the step non-finite)", n_iter=it, mu=mu)
         if step is None:
             status = "stall"
             break

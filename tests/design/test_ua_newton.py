@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from airmat.errors import InputError
+from airmat.errors import ConvergenceError, InputError
 from airmat.synthetic.targets import saddle
 from airmat.design import ua_newton
 from airmat.design.closest_point import MeshProjector
@@ -62,6 +62,36 @@ def test_a_line_search_keeps_U_A_decreasing(problem, monkeypatch):
     monkeypatch.setattr(ua_newton, "_line_search", spy)
     ua_newton.newton(prob, x0, tol=1e-4, max_iter=20)
     assert np.all(np.diff(energies) <= 0)
+
+
+@pytest.mark.parametrize("entry, match", [(np.nan, "non-finite Newton matrix"), (-1e300, "no descent step")])
+def test_a_newton_matrix_no_shift_makes_definite_ends_the_relaxation(problem, monkeypatch, entry, match):
+    """A non-finite Hessian, or one no shift of MAX_SHIFTS makes definite, ends the relaxation with a
+    ConvergenceError instead of raising the shift forever."""
+    prob, x0 = problem
+    real = ua_newton._hessian
+
+    def broken(prob_, pattern, x, normal):
+        h = real(prob_, pattern, x, normal)
+        h.data[h.indptr[0] + np.flatnonzero(h.indices[h.indptr[0]:h.indptr[1]] == 0)[0]] = entry
+        return h
+
+    monkeypatch.setattr(ua_newton, "_hessian", broken)
+    factorizations = []
+    real_cholesky = ua_newton._Pattern.cholesky
+
+    def counted(pattern):
+        factorizations.append(real_cholesky(pattern))
+        return factorizations[-1]
+
+    monkeypatch.setattr(ua_newton._Pattern, "cholesky", counted)
+    with pytest.raises(ConvergenceError, match=match) as err:
+        ua_newton.newton(prob, x0, tol=1e-4, max_iter=100)
+    if np.isfinite(entry):
+        assert factorizations[0].n_factorizations == ua_newton.MAX_SHIFTS
+        assert err.value.data["mu"] >= 10.0 ** (ua_newton.MAX_SHIFTS - 1) * ua_newton.MU_MIN * prob.k[0]
+    else:
+        assert factorizations[0].n_factorizations == 0
 
 
 def test_unknown_solver_is_refused_before_any_work(problem):
