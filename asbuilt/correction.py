@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from airmat.asbuilt.update import world_slopes
+from airmat.asbuilt.chain_slopes import world_slopes
 from airmat.check.compare import deviation
 from airmat.check.refined_design import refined_design
 from airmat.check.refinement import length_bounds

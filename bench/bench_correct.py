@@ -42,7 +42,8 @@ import numpy as np  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 from airmat.asbuilt.correction import correct  # noqa: E402
 from airmat.asbuilt.true_world import World, built_world  # noqa: E402
-from airmat.asbuilt.update import MAX_RELINEARISATIONS, known_face_update, update  # noqa: E402
+from airmat.asbuilt.laplace import known_face_update  # noqa: E402
+from airmat.asbuilt.update import MAX_RELINEARISATIONS, update  # noqa: E402
 from airmat.check.compare import deviation  # noqa: E402
 from airmat.check.inflation_check import check, design_strings  # noqa: E402
 from airmat.check.string_world import world_strings  # noqa: E402

@@ -77,7 +77,7 @@ def test_pulled_to_the_design_the_correction_undoes_the_world(undone, small_upda
     """The rest lengths the simulator needs do not depend on the world: the re-cut strings in the true
     world (no new cut error) give the design's own rest lengths, to the spread the posterior of (Δ, d)
     gives a new string's rest length (R_θ Σ R_θᵀ; its old cut error is gone)."""
-    from airmat.asbuilt.update import world_slopes
+    from airmat.asbuilt.chain_slopes import world_slopes
 
     w, c = small_world, undone
     r_theta, _, _ = world_slopes(w.design, small_update.mean, np.zeros(len(c.kept)))

@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from airmat.asbuilt.scan_data import scan_data
-from airmat.asbuilt.update import (MAX_RELINEARISATIONS, _Linear, _map, _prior, known_face_update, slack_reach,
-                                   update, world_slopes)
+from airmat.asbuilt.chain_slopes import length_prior, world_slopes
+from airmat.asbuilt.laplace import LinearFace, known_face_update, map_estimate, slack_reach
+from airmat.asbuilt.update import MAX_RELINEARISATIONS, update
 from airmat.asbuilt.updated_calibration import updated_calibration
 from airmat.check.compare import deviation
 from airmat.check.face_linearization import linearize
@@ -242,17 +243,17 @@ def test_a_string_at_the_onset_of_tension_is_not_held_by_the_scan(small_world):
     prediction: taut both ways the MAP keeps that error; at the onset (reach 0) it is freed."""
     w = small_world
     k, theta = 2, np.array([w.delta, w.d])
-    mean0, cov0, s = _prior(w.design, 0.003, "uniform")
+    mean0, cov0, s = length_prior(w.design, 0.003, "uniform")
     prior_prec = np.block([[np.linalg.inv(cov0), np.zeros((2, k))], [np.zeros((k, 2)), np.diag(1 / s ** 2)]])
     prior_mean = np.concatenate([mean0, np.zeros(k)])
     x0 = np.concatenate([theta, [w.cut[0], -3 * s[1]]])
     rest0 = world_strings(w.design, *theta, cut_error=x0[2:]).rest
     a_n = np.random.default_rng(0).normal(0.0, 0.5, (200, k))
     base = dict(y=np.zeros(200), var_scan=np.full(200, 1e-10), a_n=a_n, rigid=np.zeros((200, 0)), rest=rest0)
-    held = _Linear(**base, reach=np.array([0.01, 0.01]), give=np.diag([0.9, 0.9]))
-    onset = _Linear(**base, reach=np.array([0.01, 0.0]), give=np.diag([0.9, 0.9]))
-    x_held = _map(w.design, held, x0, prior_mean, prior_prec, 1e-10, k)[0]
-    x_free = _map(w.design, onset, x0, prior_mean, prior_prec, 1e-10, k)[0]
+    held = LinearFace(**base, reach=np.array([0.01, 0.01]), give=np.diag([0.9, 0.9]))
+    onset = LinearFace(**base, reach=np.array([0.01, 0.0]), give=np.diag([0.9, 0.9]))
+    x_held = map_estimate(w.design, held, x0, prior_mean, prior_prec, 1e-10, k)[0]
+    x_free = map_estimate(w.design, onset, x0, prior_mean, prior_prec, 1e-10, k)[0]
     held_rest, free_rest = (world_strings(w.design, *x[:2], cut_error=x[2:]).rest for x in (x_held, x_free))
     assert np.all(np.abs(held_rest - rest0) < 1e-6), held_rest - rest0           # both rest lengths held
     assert abs(free_rest[0] - rest0[0]) < 1e-6 and free_rest[1] > rest0[1] + 1e-3  # string 2 lengthened, slack
