@@ -84,10 +84,14 @@ def run_entry(entry, *, resolution: float, spacing: float, max_iter: int, folder
         return {**row, "exit": FAILED, "seconds": time.perf_counter() - t0, "message": str(err)}
     rep = result.approx.report
     row["constructible"] = rep.constructible
+    row["design_seconds"] = sum(result.timings.values())
+    row["folds"] = ("" if result.fold_route is None else
+                    f"k_A1 × {result.fold_route.trial.ratio:g}" if result.fold_route.found else "none found")
     converged = bool(result.approx.relax.converged)
     try:
         r = refine(result, resolution=resolution, max_iter=max_iter)
-    except InputError as err:                 # nothing to refine (no strings): 'airmat design --refine' refuses it
+    except InputError as err:                 # no strings, or strings the mesh cannot resolve: 'airmat design --refine' refuses it
+        print(f"{entry.name}: {err.message}", file=sys.stderr, flush=True)
         return {**row, "exit": BAD_INPUT, "seconds": time.perf_counter() - t0, "message": err.message}
     c = check(r.design, resolution=resolution, envelope=False, known=r.known_runs)
     med = c.runs["median"]
@@ -100,9 +104,7 @@ def run_entry(entry, *, resolution: float, spacing: float, max_iter: int, folder
     return {**row, "open_loop": r.deviation_before, "refined": med.deviation, "to_s": med.to_target,
             "approx_to_s": approx_to_s, "converged": converged, "exit": OK if converged else NOT_CONVERGED,
             "seconds": time.perf_counter() - t0, "strings": len(r.design.pattern.strings),
-            "design_seconds": sum(result.timings.values()), "refine_ratio": r.seconds / r.inflation_seconds,
-            "folds": "" if result.fold_route is None else
-            f"k_A1 × {result.fold_route.trial.ratio:g}" if result.fold_route.found else "none found"}
+            "refine_ratio": r.seconds / r.inflation_seconds}
 
 
 HEADER = ("| target | kind | mattress (mm) | expected | constructible | folds | open loop % diag | refined % diag "
@@ -115,7 +117,10 @@ def format_row(row: dict) -> str:
     head = f"| {row['name']} | {row['kind']} | {w / MM:.0f} × {h / MM:.0f} | {row['expected']} |"
     if "refined" not in row:
         why = row.get("message", "").split(":")[0][:60]
-        return head + f" – | – | – | – | – | – | – | – | {row['exit']} ({why}) | – | – | {row['seconds']:.1f} |"
+        if "constructible" not in row:
+            return head + f" – | – | – | – | – | – | – | – | {row['exit']} ({why}) | – | – | {row['seconds']:.1f} |"
+        return (head + f" {'yes' if row['constructible'] else 'no'} | {row['folds'] or '–'} | – | – | – | – | – | – "
+                f"| {row['exit']} ({why}) | {row['design_seconds']:.1f} | – | {row['seconds']:.1f} |")
     ts = row["to_s"]
     return (head + f" {'yes' if row['constructible'] else 'no'} | {row['folds'] or '–'} "
             f"| {row['open_loop'].rms_pct_diag:.2f} "

@@ -16,6 +16,9 @@ l = string_length(|κ|, L, Δ, d), evaluated for every posterior sample of
   perhaps its median, is 0).
 - A dash whose chord is much shorter than its arc length (a line curving
   strongly on Ω) is flagged ``curved``: the string pulls along the chord.
+  One whose chord is below half its arc length (a line curling on Ω, as
+  principal lines do in a folded Ŝ) gets no string: its two ties are not
+  a span Equation 3 speaks of. It is counted and named in a note.
 - Given Ŝ, Equation 3's span is the string's free face's length between the
   ties on Ŝ, at most the dash's length (:mod:`airmat.design.free_face`), not the dash's
   length on Ω: where Ŝ compresses that face, the string is shorter.
@@ -42,6 +45,8 @@ log = logging.getLogger(__name__)
 
 #: a dash whose chord is shorter than this fraction of its arc length is flagged "curved"
 CURVED_CHORD_RATIO = 0.95
+#: a dash whose chord is shorter than this fraction of its arc length gets no string (a semicircle's is 2/π = 0.64)
+CURL_CHORD_RATIO = 0.5
 
 
 def dash_kappa(mfield, dashes, *, n_points: int = 10) -> np.ndarray:
@@ -145,7 +150,10 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     med_flat = flat_length(spans, np.median(calibration.delta))
     need = np.abs(kappa) >= max(kappa_min, 0.0)
     need &= np.abs(kappa) > 0
+    curled = np.array([d.chord < CURL_CHORD_RATIO * d.length for d in dashes], bool).reshape(-1)
     strings, n_no = [], {name: 0 for name in FAMILIES}
+    n_curled = {name: int(sum(c and d.family == name for c, d in zip(curled, dashes))) for name in FAMILIES}
+    need &= ~curled
     idx_need = np.flatnonzero(need)
     eq3_spans = spans.copy()
     if approx is not None and len(idx_need):
@@ -175,8 +183,13 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     for i in np.flatnonzero(~need):
         n_no[dashes[i].family] += 1
     n_dashes = {name: sum(1 for d in dashes if d.family == name) for name in FAMILIES}
-    extra = [f"{name}: {n_no[name]} of {n_dashes[name]} dashes need no string (|kappa| < {kappa_min:g} 1/m)"
-             for name in FAMILIES if n_no[name]]
+    extra = [f"{name}: {n_no[name] - n_curled[name]} of {n_dashes[name]} dashes need no string "
+             f"(|kappa| < {kappa_min:g} 1/m)" for name in FAMILIES if n_no[name] > n_curled[name]]
+    if curled.any():
+        ids = [d.id for d, c in zip(dashes, curled) if c]
+        extra.append(f"{len(ids)} dashes curl on the mattress (chord below {CURL_CHORD_RATIO:g} of their length: "
+                     f"{', '.join(ids[:5])}{' …' if len(ids) > 5 else ''}): no string")
+        log.warning(extra[-1])
     n_beyond = sum("beyond_reach" in s.flags for s in strings)
     if n_beyond:
         extra.append(f"{n_beyond} strings are beyond reach of the calibration (l clipped to 0 for the "

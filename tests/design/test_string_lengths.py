@@ -111,6 +111,25 @@ def test_curved_dash_is_flagged():
     assert "curved" in pattern.strings[0].flags
 
 
+def test_a_dash_that_curls_on_the_mattress_gets_no_string_and_is_named():
+    """A line curling on Ω (a folded Ŝ's principal lines do): a 300 mm dash whose ends lie 40 mm apart is no span
+    of Equation 3. It gets no string and the note names it; a dash bent as far as a semicircle keeps its string."""
+    def arc(turn, name):
+        t = np.linspace(0.0, turn, 121)
+        radius = 0.3 / turn
+        poly = np.column_stack([radius * np.cos(t), radius * np.sin(t)]) + [0.4, 0.37]
+        length = float(np.sum(np.linalg.norm(np.diff(poly, axis=0), axis=1)))
+        return Dash(name, "k1", 1, 1, poly, length)
+
+    curl, bend = arc(5.6, "k1-001-01"), arc(np.pi, "k1-002-01")
+    assert curl.chord < 0.05 and curl.chord < 0.5 * curl.length < bend.chord
+    pattern = string_pattern(cylinder_field(kappa=-3.0), [curl, bend], CAL, L=0.3)
+    assert [s.dash.id for s in pattern.strings] == ["k1-002-01"] and "curved" in pattern.strings[0].flags
+    assert pattern.n_no_string["k1"] == 1
+    assert any("curl" in n and "k1-001-01" in n for n in pattern.notes)
+    assert not any("need no string" in n for n in pattern.notes)
+
+
 def test_length_quantiles_is_one_batch_equal_to_per_dash_calls():
     kap = np.array([0.5, 2.0, 7.0, 10.0])
     q, frac = length_quantiles(kap, P.L, CAL.delta, CAL.d)
