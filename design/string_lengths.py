@@ -150,7 +150,7 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     med_flat = flat_length(spans, np.median(calibration.delta))
     need = np.abs(kappa) >= max(kappa_min, 0.0)
     need &= np.abs(kappa) > 0
-    curled = np.array([d.chord < CURL_CHORD_RATIO * d.length for d in dashes], bool).reshape(-1)
+    curled = need & np.array([d.chord < CURL_CHORD_RATIO * d.length for d in dashes], bool).reshape(-1)
     strings, n_no = [], {name: 0 for name in FAMILIES}
     n_curled = {name: int(sum(c and d.family == name for c, d in zip(curled, dashes))) for name in FAMILIES}
     need &= ~curled
