@@ -150,10 +150,9 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     med_flat = flat_length(spans, np.median(calibration.delta))
     need = np.abs(kappa) >= max(kappa_min, 0.0)
     need &= np.abs(kappa) > 0
-    curled = need & np.array([d.chord < CURL_CHORD_RATIO * d.length for d in dashes], bool).reshape(-1)
-    strings, n_no = [], {name: 0 for name in FAMILIES}
-    n_curled = {name: int(sum(c and d.family == name for c, d in zip(curled, dashes))) for name in FAMILIES}
+    curled = need & (np.array([d.chord for d in dashes], float).reshape(-1) < CURL_CHORD_RATIO * own)
     need &= ~curled
+    strings, n_no = [], {name: 0 for name in FAMILIES}
     idx_need = np.flatnonzero(need)
     eq3_spans = spans.copy()
     if approx is not None and len(idx_need):
@@ -183,8 +182,9 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
     for i in np.flatnonzero(~need):
         n_no[dashes[i].family] += 1
     n_dashes = {name: sum(1 for d in dashes if d.family == name) for name in FAMILIES}
-    extra = [f"{name}: {n_no[name] - n_curled[name]} of {n_dashes[name]} dashes need no string "
-             f"(|kappa| < {kappa_min:g} 1/m)" for name in FAMILIES if n_no[name] > n_curled[name]]
+    flat = {name: n_no[name] - sum(1 for d, c in zip(dashes, curled) if c and d.family == name) for name in FAMILIES}
+    extra = [f"{name}: {flat[name]} of {n_dashes[name]} dashes need no string (|kappa| < {kappa_min:g} 1/m)"
+             for name in FAMILIES if flat[name]]
     if curled.any():
         ids = [d.id for d, c in zip(dashes, curled) if c]
         extra.append(f"{len(ids)} dashes curl on the mattress (chord below {CURL_CHORD_RATIO:g} of their length: "
