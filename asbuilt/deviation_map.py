@@ -111,7 +111,7 @@ def deviation_map(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray, *
     """
     from pykdtree.kdtree import KDTree
 
-    from airmat.asbuilt.registration import sample_surface
+    from airmat.asbuilt.surface_icp import sample_surface
 
     p = _shape_check(points, "points")
     v = _shape_check(vertices, "vertices")

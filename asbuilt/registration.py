@@ -25,7 +25,11 @@ points over the predicted shape within ``inlier_distance`` of it, an RMS above
 ``max_rms``, or less than ``min_coverage`` of the shape seen. A shape with a
 symmetry (a rectangle of a cylinder, a saddle, a dome) fits equally well in
 several poses; ``n_equivalent`` counts them, and the scan then needs a marker
-or a start (``init``) to tell them apart. Lengths in metres.
+or a start (``init``) to tell them apart.
+
+The scan's preparation (unit, floor, clutter, voxels) is :mod:`airmat.asbuilt.scan_cloud`; the ICP
+:mod:`airmat.asbuilt.surface_icp`; this module chooses the start, runs them and judges the fit.
+Lengths in metres.
 """
 
 from __future__ import annotations
@@ -35,35 +39,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airmat.calib.point_normals import normals_knn
+from airmat.asbuilt.scan_cloud import check_points, largest_part, prepare_scan, unit_factor
+from airmat.asbuilt.surface_icp import SurfaceFit, tukey_ladder
 from airmat.errors import InputError
 from airmat.summary import Summarized
 
-__all__ = ["Registration", "register", "robust_extent", "sample_surface", "ALTERNATIVE_SHARE"]
+__all__ = ["Registration", "register", "ALTERNATIVE_SHARE"]
 
 log = logging.getLogger(__name__)
 
-#: extent ratios (reference / scan) accepted for each unit factor: a scan may cover part of the
-#: mattress (smaller) or hold the floor around it (larger)
-_UNIT_RATIOS = {1.0: (0.2, 5.0), 1000.0: (200.0, 5000.0)}
-#: scan points the final ICP works on (a random subset of larger scans)
-_N_FINE = 40_000
 #: scan points the starts' ICP works on, its iterations per level and its step tolerance (share of the span)
 _N_START, _START_ITER_LEVEL, _START_TOL = 1500, 10, 1e-5
 #: points sampled on the reference for the starts' ICP
 _N_COARSE_SAMPLES = 20_000
-#: ICP iterations per annealing level and in total
-_MAX_ITER_LEVEL, _MAX_ITER = 50, 250
-#: a level of the final ICP ends when a step moves no point by more than this share of the span
-#: (10 µm on a 1 m mattress: 1 % of the 1 mm the registration must reach)
-_TOL = 1e-5
 #: a start's pose is an alternative (:attr:`Registration.alternatives`) when it keeps at least this share of the
 #: best start's inliers: on vault1 built at Δ = 22, d = 75 mm (its design's medians 17.9, 69.8 mm) with ±3 mm
 #: ties (``docs/guide/correct.md``'s example) the true pose's start holds 14 488 inliers within 30 mm of the
 #: median prediction, the half-turned one 14 637 (99 %), the next distinct pose 6 851 (47 %)
 ALTERNATIVE_SHARE = 0.9
-#: the scan normal's largest angle from the reference's (degrees) on the last levels of the annealing
-_MAX_NORMAL_DEG, _NORMAL_GATE_LEVELS = 30.0, 2
 
 
 @dataclass(frozen=True, repr=False)
@@ -127,61 +120,6 @@ class Registration(Summarized):
                                 ("converged", self.converged), ("poses", self.n_equivalent)]
 
 
-def robust_extent(points: np.ndarray) -> float:
-    """Diagonal of the 1 %..99 % percentile box of ``points`` along their principal axes (their unit).
-
-    Examples
-    --------
-    >>> pts = np.random.default_rng(0).uniform(0, 1, (5000, 3)) * [0.8, 0.7, 0.0]   # 1.063 m, 2 % in the tails
-    >>> round(robust_extent(pts), 2), round(robust_extent(pts @ [[0, 1, 0], [1, 0, 0], [0, 0, 1]] * 1e3), -1)
-    (1.09, 1090.0)
-    """
-    pts = np.asarray(points, dtype=float)
-    pts = pts[:: max(1, len(pts) // 200_000)]
-    local = pts - pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(local[:: max(1, len(local) // 20_000)], full_matrices=False)
-    lo, hi = np.percentile(local @ vt.T, [1, 99], axis=0)
-    return float(np.linalg.norm(hi - lo))
-
-
-def sample_surface(vertices: np.ndarray, faces: np.ndarray, n: int, *, seed=0):
-    """``n`` points on a triangle mesh, area-weighted, with its interpolated unit vertex normals.
-
-    Parameters
-    ----------
-    vertices : ndarray of shape (V, 3)
-        Coordinates (m).
-    faces : ndarray of shape (F, 3)
-        Vertex indices, consistently oriented.
-    n : int
-        Points.
-    seed : int or numpy Generator
-
-    Returns
-    -------
-    points, normals : ndarray of shape (n, 3)
-        Points (m) and unit normals (on the side the faces' winding gives).
-    face : ndarray of shape (n,)
-        The face each point lies on.
-    """
-    v = np.asarray(vertices, dtype=float)
-    f = np.asarray(faces, dtype=np.int64)
-    rng = np.random.default_rng(seed)
-    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    area = 0.5 * np.linalg.norm(cross, axis=1)
-    vn = np.zeros_like(v)
-    for j in range(3):  # area-weighted vertex normals
-        np.add.at(vn, f[:, j], cross)
-    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), np.finfo(float).tiny)
-    face = rng.choice(len(f), size=int(n), p=area / area.sum())
-    r1, r2 = np.sqrt(rng.random(int(n))), rng.random(int(n))
-    bary = np.column_stack([1 - r1, r1 * (1 - r2), r1 * r2])
-    pts = np.einsum("nk,nkj->nj", bary, v[f[face]])
-    nrm = np.einsum("nk,nkj->nj", bary, vn[f[face]])
-    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), np.finfo(float).tiny)
-    return pts, nrm, face
-
-
 def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_faces: np.ndarray, *, seed=0,
              units: str = "auto", voxel: float | None = None, inlier_distance: float = 0.015,
              min_inlier_share: float = 0.8, max_rms: float | None = None, min_coverage: float = 0.5,
@@ -235,26 +173,26 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
         Shapes wrong, unit ambiguous, or the scan does not match the reference (the numbers in
         ``err.data``).
     """
-    scan = _check_points(scan_points, "scan_points")
-    ref_v = _check_points(reference_vertices, "reference_vertices")
+    scan = check_points(scan_points, "scan_points")
+    ref_v = check_points(reference_vertices, "reference_vertices")
     ref_f = np.asarray(reference_faces)
     if ref_f.ndim != 2 or ref_f.shape[1] != 3:
         raise InputError(f"reference_faces must have shape (F, 3), got {ref_f.shape}")
     max_rms = inlier_distance / 3 if max_rms is None else float(max_rms)
-    fit = _Fit(ref_v, ref_f, n_reference_samples, seed)
+    fit = SurfaceFit(ref_v, ref_f, n_reference_samples, seed)
     diag = float(np.linalg.norm(ref_v.max(axis=0) - ref_v.min(axis=0)))
-    scale = _unit_factor(scan, fit.pts, units, name)
+    scale = unit_factor(scan, fit.pts, units, name)
     voxel = diag / 150 if voxel is None else float(voxel)
-    cloud = _prepare(scan * scale, voxel, remove_floor=remove_floor, seed=seed, name=name)
+    cloud = prepare_scan(scan * scale, voxel, remove_floor=remove_floor, seed=seed, name=name)
     pts, normals = cloud.voxels, cloud.voxel_normals
-    starts = [init] if init is not None else _pca_starts(_largest_part(pts, 3 * voxel), fit.pts)
-    ladder = _ladder(0.25 * diag, inlier_distance)
+    starts = [init] if init is not None else _pca_starts(largest_part(pts, 3 * voxel), fit.pts)
+    ladder = tukey_ladder(0.25 * diag, inlier_distance)
     local = init is not None and local
     if local:
         trials = [(np.asarray(init[0], dtype=float), np.asarray(init[1], dtype=float), 0, True)]
     else:
         pick = np.random.default_rng(seed).permutation(len(pts))[:_N_START]
-        coarse = _Fit(ref_v, ref_f, _N_COARSE_SAMPLES, seed)   # the starts need no fine reference
+        coarse = SurfaceFit(ref_v, ref_f, _N_COARSE_SAMPLES, seed)   # the starts need no fine reference
         trials = [coarse.icp(pts[pick], *start, ladder, normals=normals[pick], max_iter_level=_START_ITER_LEVEL,
                              tol=_START_TOL) for start in starts]
     inliers = np.array([fit.inliers(pts, r, t, inlier_distance) for r, t, *_ in trials])
@@ -276,98 +214,6 @@ def register(scan_points: np.ndarray, reference_vertices: np.ndarray, reference_
     return reg
 
 
-@dataclass(frozen=True)
-class _Cloud:
-    """The scan off the floor: voxel centroids and a random subset of its points, with normals."""
-
-    voxels: np.ndarray
-    voxel_normals: np.ndarray
-    points: np.ndarray
-    normals: np.ndarray
-    message: str
-
-
-def _prepare(scan, voxel, *, remove_floor, seed, name) -> _Cloud:
-    """Voxel centroids (their normals from their 12 neighbours), the floor removed, and up to
-    ``_N_FINE`` scan points off the floor, each with its voxel's normal."""
-    from airmat.calib.voxel_grid import voxel_moments
-
-    inverse, _, pts, _ = voxel_moments(scan, voxel)
-    normals = normals_knn(pts, 12)
-    keep = _off_floor(pts, normals, voxel, seed) if remove_floor else np.ones(len(pts), dtype=bool)
-    if np.count_nonzero(keep) < 50:
-        raise InputError(f"{name} holds too few points off the floor ({np.count_nonzero(keep)} voxels of "
-                         f"{voxel * 1e3:.1f} mm): is it a scan of the mattress?", n_points=int(np.count_nonzero(keep)))
-    raw = np.flatnonzero(keep[inverse])
-    raw = np.sort(np.random.default_rng(seed).permutation(raw)[:_N_FINE])
-    message = (f"{len(scan)} points, {len(pts)} voxels of {voxel * 1e3:.1f} mm, "
-               f"{np.count_nonzero(~keep)} on or below the floor")
-    return _Cloud(voxels=pts[keep], voxel_normals=normals[keep], points=scan[raw], normals=normals[inverse[raw]],
-                  message=message)
-
-
-def _check_points(a, what: str) -> np.ndarray:
-    a = np.asarray(a, dtype=float)
-    if a.ndim != 2 or a.shape[1] != 3 or len(a) < 3:
-        raise InputError(f"{what} must have shape (N, 3) with N >= 3, got {a.shape}")
-    finite = np.isfinite(a).all(axis=1)
-    return a if finite.all() else a[finite]
-
-
-def _area(v, f) -> float:
-    return float(0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum())
-
-
-def _unit_factor(scan, ref_pts, units: str, name: str) -> float:
-    """1 or 1000, from the ratio of the robust extents; refuse a ratio neither explains."""
-    if units == "same":
-        return 1.0
-    if units == "m-as-mm":
-        return 1000.0
-    if units != "auto":
-        raise InputError(f"units must be 'auto', 'same' or 'm-as-mm', got {units!r}")
-    e_scan, e_ref = robust_extent(scan), robust_extent(ref_pts)
-    ratio = e_ref / max(e_scan, np.finfo(float).tiny)
-    for factor, (lo, hi) in _UNIT_RATIOS.items():
-        if lo <= ratio <= hi:
-            return factor
-    raise InputError(f"{name}'s size does not tell its unit: its extent is {e_scan * 1e3:.4g} mm, the predicted "
-                     f"shape's {e_ref * 1e3:.4g} mm (ratio {ratio:.3g}; about 1 for a scan in millimetres, about "
-                     "1000 for one in metres); give the scan's unit or crop it to the mattress",
-                     scan_extent=e_scan, reference_extent=e_ref, ratio=ratio)
-
-
-def _off_floor(pts, normals, voxel, seed) -> np.ndarray:
-    """(N,) bool: the voxel points neither on a support plane (the floor) nor below it.
-
-    :func:`~airmat.calib.support_plane.find_support_planes` accepts only a plane the rest of the
-    scene lies on one side of and rejects the tangent slab of a curved surface; a flat top face
-    it gives back as the specimen. What lies beyond the plane, away from most points, goes too.
-    """
-    from airmat.calib.support_plane import find_support_planes
-
-    found = find_support_planes(pts, threshold=voxel, normals=normals, seed=seed)
-    keep = np.ones(len(pts), dtype=bool)
-    for plane in found.supports:
-        d = plane.distance(pts)
-        far = np.abs(d) > 3 * voxel
-        side = np.sign(np.median(d[far])) if far.any() else 1.0
-        keep &= d * side > voxel
-    return keep
-
-
-def _largest_part(pts, eps):
-    """The largest connected part of ``pts`` at distance ``eps`` (the mattress without the clutter beside it)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    pairs = cKDTree(pts).query_pairs(eps, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
-    _, label = connected_components(graph, directed=False)
-    return pts[label == np.argmax(np.bincount(label))]
-
-
 def _pca_starts(src, ref):
     """The 8 proper rotations taking the principal axes of ``src`` onto those of ``ref``, with translations."""
     cs, cr = src.mean(axis=0), ref.mean(axis=0)
@@ -382,143 +228,6 @@ def _pca_starts(src, ref):
             rot = rot if np.linalg.det(rot) > 0 else er.T @ (a * [[1], [1], [-1]])
             starts.append((rot, cr - rot @ cs))
     return starts
-
-
-def _ladder(k0: float, k_final: float) -> list:
-    """Tukey scales from ``k0`` halving down to ``k_final``."""
-    n = max(1, int(np.ceil(np.log2(max(k0 / k_final, 1.0)))))
-    return list(k_final * 2.0 ** np.arange(n, -1, -1))
-
-
-class _Fit:
-    """The reference's samples (interior and outline) and a robust point-to-surface ICP against them.
-
-    A scan point's residual is its signed normal distance to the nearest sample's tangent plane
-    or, when its nearest sample is an outline sample, its outward overhang beyond the outline (if
-    it lies outward). The overhang term is what fixes the slide along a cylinder's axis and the
-    turn about a dome's axis, which point-to-plane residuals alone leave free; the normal distance
-    of a point nearest the outline does not count, since the mattress's sides, below the outline,
-    are not the top face.
-    """
-
-    def __init__(self, vertices, faces, n_samples, seed):
-        from pykdtree.kdtree import KDTree
-
-        pts, nrm, _ = sample_surface(vertices, faces, n_samples, seed=seed)
-        self.spacing = float(np.sqrt(_area(vertices, faces) / len(pts)))
-        self.n_interior = len(pts)   # the first samples; the outline's follow
-        bpts, bnrm, bout = _outline_samples(vertices, faces, self.spacing / 4)
-        self.pts = np.vstack([pts, bpts])
-        self.nrm = np.vstack([nrm, bnrm])
-        self.out = np.vstack([np.zeros_like(pts), bout])   # zero: an interior sample
-        self.tree = KDTree(self.pts)
-
-    def residuals(self, p, bound=np.inf):
-        """Offsets ``e = p - q`` to the nearest samples (N, 3), their normals (N, 3), outward directions (N, 3)
-        and whether a sample lies within ``bound`` (N,)."""
-        d, idx = self.tree.query(p, k=1, distance_upper_bound=bound)
-        found = np.isfinite(d)
-        idx = np.where(found, idx, 0)
-        return p - self.pts[idx], self.nrm[idx], self.out[idx], found
-
-    def distances(self, p):
-        """Signed normal distance (N,) of ``p`` from the surface (m), and whether each projects inside its outline."""
-        e, n, o, _ = self.residuals(p)
-        r = np.einsum("ij,ij->i", e, n)
-        lateral = np.sqrt(np.maximum(np.einsum("ij,ij->i", e, e) - r ** 2, 0.0))
-        return r, (lateral < 2 * self.spacing) & ~np.any(o != 0, axis=1)
-
-    def inliers(self, pts, rot, trans, k):
-        _, _, _, found = self.residuals(pts @ rot.T + trans, bound=k)
-        return found
-
-    def icp(self, pts, rot, trans, ladder, *, normals, max_iter_level=_MAX_ITER_LEVEL, tol=_TOL):
-        """Tukey-weighted point-to-surface ICP, annealed over the Tukey scales ``ladder``.
-
-        A level ends when a step moves no point by more than ``tol`` times the points' span. On the
-        levels within ``_NORMAL_GATE_LEVELS`` of the last, a point whose own normal (``normals``, sign
-        arbitrary) is more than ``_MAX_NORMAL_DEG`` from the reference's does not count: the
-        mattress's sides and the faces of a box are not the top face.
-        """
-        rot, trans = np.array(rot, dtype=float), np.array(trans, dtype=float)
-        span = float(np.ptp(pts, axis=0).max())
-        tol = tol * span
-        it, converged = 0, False
-        gate_from = ladder[-1] * 2 ** _NORMAL_GATE_LEVELS
-        for k in ladder:
-            converged = False
-            for _ in range(max_iter_level):
-                it += 1
-                step = self._step(pts @ rot.T + trans, k, normals @ rot.T if k < gate_from else None)
-                if step is None:
-                    break
-                d_rot, d_t, angle = step
-                rot, trans = d_rot @ rot, d_rot @ trans + d_t
-                if np.linalg.norm(d_t) + span * angle < tol:
-                    converged = True
-                    break
-            if it >= _MAX_ITER:
-                break
-        return rot, trans, it, converged
-
-    def _step(self, p, k, normals=None):
-        """One Gauss-Newton step of the robust objective: (rotation, translation, angle) increment, or None."""
-        e, n, o, found = self.residuals(p, bound=k)
-        if normals is not None:
-            found &= np.abs(np.einsum("ij,ij->i", normals, n)) > np.cos(np.radians(_MAX_NORMAL_DEG))
-        if np.count_nonzero(found) < 6:
-            return None
-        e, n, o, p = e[found], n[found], o[found], p[found]
-        w = (1 - np.einsum("ij,ij->i", e, e) / k ** 2) ** 2
-        c = np.average(p, axis=0, weights=w)
-        q = p - c  # about the weighted centre: a well-conditioned 6x6 system
-        edge = np.any(o != 0, axis=1)   # nearest to the outline: the overhang, not the height, counts
-        over = np.einsum("ij,ij->i", e, o)
-        hang = over > 0
-        inner = ~edge
-        rows = np.vstack([np.hstack([np.cross(q[inner], n[inner]), n[inner]]),
-                          np.hstack([np.cross(q[hang], o[hang]), o[hang]])])
-        res = np.concatenate([np.einsum("ij,ij->i", e[inner], n[inner]), over[hang]])
-        wr = np.concatenate([w[inner], w[hang]])
-        a = np.einsum("i,ij,ik->jk", wr, rows, rows)
-        b = np.einsum("i,ij,i->j", wr, rows, res)
-        # a tiny damping: directions no residual sees (a partial scan's slide along a cylinder) stay put
-        x = -np.linalg.solve(a + 1e-9 * np.trace(a) * np.eye(6), b)
-        d_rot = _rodrigues(x[:3])
-        return d_rot, c + x[3:] - d_rot @ c, float(np.linalg.norm(x[:3]))
-
-
-def _outline_samples(vertices, faces, step):
-    """Points every ``step`` along the mesh's outline, with the surface normal and the outward in-plane direction."""
-    v, f = np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64)
-    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    third = np.concatenate([f[:, 2], f[:, 0], f[:, 1]])
-    key = np.sort(edges, axis=1)
-    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    lone = count[inv.ravel()] == 1
-    a, b, c = v[edges[lone, 0]], v[edges[lone, 1]], v[third[lone]]
-    normal = np.cross(b - a, c - a)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    out = np.cross(b - a, normal)
-    out /= np.linalg.norm(out, axis=1, keepdims=True)
-    out *= np.sign(np.einsum("ij,ij->i", out, a - c))[:, None]   # away from the face's third vertex
-    length = np.linalg.norm(b - a, axis=1)
-    counts = np.maximum(1, np.ceil(length / step).astype(int))
-    owner = np.repeat(np.arange(len(a)), counts)
-    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + 0.5) / counts[owner]
-    return a[owner] + t[:, None] * (b - a)[owner], normal[owner], out[owner]
-
-
-def _skew(v):
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-
-
-def _rodrigues(w):
-    angle = float(np.linalg.norm(w))
-    if angle < 1e-15:
-        return np.eye(3)
-    k = _skew(w / angle)
-    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
 
 
 def _same_pose(pts, a, b, tol) -> bool:

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from airmat.asbuilt.registration import Registration, register, robust_extent
+from airmat.asbuilt.registration import Registration, register
+from airmat.asbuilt.scan_cloud import robust_extent
 from airmat.errors import InputError
 
 #: the mattress's outline (m): 800 x 700 mm, one corner cut by 150 mm so that no symmetry maps it onto itself
