@@ -39,7 +39,7 @@ from airmat.design.field import FAMILIES
 from airmat.design.free_face import free_face_ratio
 from airmat.design.pattern import Pattern, TensionString
 
-__all__ = ["dash_kappa", "length_quantiles", "string_pattern"]
+__all__ = ["dash_kappa", "length_quantiles", "string_pattern", "CURL_NOTE", "CURL_CHORD_RATIO"]
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +47,8 @@ log = logging.getLogger(__name__)
 CURVED_CHORD_RATIO = 0.95
 #: a dash whose chord is shorter than this fraction of its arc length gets no string (a semicircle's is 2/π = 0.64)
 CURL_CHORD_RATIO = 0.5
+#: the words of the pattern's note on curled dashes (the command's summary and the report find it by them)
+CURL_NOTE = "dashes curl on the mattress"
 
 
 def dash_kappa(mfield, dashes, *, n_points: int = 10) -> np.ndarray:
@@ -179,15 +181,14 @@ def string_pattern(mfield, dashes, calibration, *, L: float, n_points: int = 10,
                                      l_median=float(q[0, j]), l_lo95=float(q[1, j]), l_hi95=float(q[2, j]),
                                      flags=tuple(flags),
                                      free_span=None if approx is None else float(eq3_spans[i])))
-    for i in np.flatnonzero(~need):
+    for i in np.flatnonzero(~need & ~curled):       # a curled dash is not one whose |κ| is too small
         n_no[dashes[i].family] += 1
     n_dashes = {name: sum(1 for d in dashes if d.family == name) for name in FAMILIES}
-    flat = {name: n_no[name] - sum(1 for d, c in zip(dashes, curled) if c and d.family == name) for name in FAMILIES}
-    extra = [f"{name}: {flat[name]} of {n_dashes[name]} dashes need no string (|kappa| < {kappa_min:g} 1/m)"
-             for name in FAMILIES if flat[name]]
+    extra = [f"{name}: {n_no[name]} of {n_dashes[name]} dashes need no string (|kappa| < {kappa_min:g} 1/m)"
+             for name in FAMILIES if n_no[name]]
     if curled.any():
         ids = [d.id for d, c in zip(dashes, curled) if c]
-        extra.append(f"{len(ids)} dashes curl on the mattress (chord below {CURL_CHORD_RATIO:g} of their length: "
+        extra.append(f"{len(ids)} {CURL_NOTE} (chord below {CURL_CHORD_RATIO:g} of their length: "
                      f"{', '.join(ids[:5])}{' …' if len(ids) > 5 else ''}): no string")
         log.warning(extra[-1])
     n_beyond = sum("beyond_reach" in s.flags for s in strings)

@@ -10,6 +10,7 @@ import numpy as np
 from airmat import palette
 from airmat.units import M_TO_MM
 from airmat.design.constructibility import edge_sigma
+from airmat.design.string_lengths import CURL_NOTE
 from airmat.report.mesh import display_grid, mesh3d_trace
 from airmat.report.part import Part, figure_html
 from airmat.report.table import html_table
@@ -207,6 +208,7 @@ def design_part(result) -> Part:
     body += (html_table(["face", "family", "strings"], counts)
              + f"<p>Dashes without a string (|κ| too small): k1 {pat.n_no_string.get('k1', 0)}, "
                f"k2 {pat.n_no_string.get('k2', 0)}.</p>\n")
+    body += "".join(f'<p class="banner warn">{escape(n)}.</p>\n' for n in pat.notes if CURL_NOTE in n)
     if rep is not None:
         body += "<h3>Table-1 figures of Ŝ and the verdict</h3>\n" + _table1(rep) + _verdict(rep)
         if getattr(result, "fold_route", None) is not None:

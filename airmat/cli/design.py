@@ -180,6 +180,8 @@ def _params(args):
 
 def summary_text(doc: dict, out) -> str:
     """A few lines for stdout: strings per face and family, Table-1 figures, verdict, files."""
+    from airmat.design.string_lengths import CURL_NOTE
+
     s, r = doc["summary"], doc["report"]
     lines = [f"airmat design: {doc['name']} on a {doc['mattress']['width_mm']:.0f} x "
              f"{doc['mattress']['height_mm']:.0f} mm mattress"
@@ -201,7 +203,7 @@ def summary_text(doc: dict, out) -> str:
     if doc.get("fold_route"):
         lines.append(f"  fold route: {doc['fold_route']['message']}")
     lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
-    lines.extend(f"  warning: {n}" for n in s.get("notes", []) if "extrapolated" in n)
+    lines.extend(f"  warning: {n}" for n in s.get("notes", []) if "extrapolated" in n or CURL_NOTE in n)
     lines.append("  constructible: yes" if r["constructible"] else
                  "  constructible: NO: " + "; ".join(r["reasons"]))
     flagged = sum(1 for d in doc["dashes"] if "beyond_reach" in d["flags"])

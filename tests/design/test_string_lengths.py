@@ -125,7 +125,7 @@ def test_a_dash_that_curls_on_the_mattress_gets_no_string_and_is_named():
     assert curl.chord < 0.05 and curl.chord < 0.5 * curl.length < bend.chord
     pattern = string_pattern(cylinder_field(kappa=-3.0), [curl, bend], CAL, L=0.3)
     assert [s.dash.id for s in pattern.strings] == ["k1-002-01"] and "curved" in pattern.strings[0].flags
-    assert pattern.n_no_string["k1"] == 1
+    assert pattern.n_no_string["k1"] == 0          # counted there are the dashes whose |κ| is too small
     assert any("curl" in n and "k1-001-01" in n for n in pattern.notes)
     assert not any("need no string" in n for n in pattern.notes)
 
@@ -158,3 +158,24 @@ def test_shorter_end_dashes_take_equation_3_at_their_own_span(snapped):
         assert whole
         for s in whole:
             np.testing.assert_allclose([s.l_median, s.l_lo95, s.l_hi95], _direct(4.0), rtol=1e-9)
+
+
+def test_the_command_and_the_report_say_which_dashes_curled(tmp_path):
+    """The note on curled dashes reaches the user: a line of the command's summary and a banner of report.html."""
+    import dataclasses
+
+    from airmat.cli.design import summary_text
+    from airmat.design.design_io import document
+    from airmat.design.pipeline import DesignParams, design
+    from airmat.design.presets import preset
+    from airmat.design.string_lengths import CURL_NOTE
+    from airmat.report.design import design_part
+
+    target, mattress = preset("vault1")
+    result = design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
+    note = f"2 {CURL_NOTE} (chord below 0.5 of their length: k1-009-01, k2-003-02): no string"
+    assert not any(CURL_NOTE in n for n in result.pattern.notes)          # vault1's lines do not curl
+    result = dataclasses.replace(result, pattern=dataclasses.replace(result.pattern,
+                                                                     notes=result.pattern.notes + (note,)))
+    assert f"  warning: {note}" in summary_text(document(result), tmp_path).splitlines()
+    assert note in design_part(result).body
