@@ -41,7 +41,7 @@ from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
 
 __all__ = ["AsBuilt", "correct", "scanned_face", "scanned_target", "MAX_DISTANCE", "REGISTRATION", "REREGISTRATIONS", "POSE_TOL",
-           "FIRST_RELINEARISATIONS"]
+           "FIRST_RELINEARISATIONS", "ROUND_POINTS", "round_subset"]
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +67,11 @@ REREGISTRATIONS = 4
 
 #: the alternation stops when registering again moves the points on the face by less than this (m RMS)
 POSE_TOL = 0.5e-3
+
+#: scan points a round of the alternation reduces to the predicted face (:func:`round_subset`): twice the update's
+#: own subset (:data:`airmat.asbuilt.scan_data.MAX_POINTS`), so that it still gets that many where half the scan is
+#: floor and clutter; every point goes into the deviation maps written at the end
+ROUND_POINTS = 400_000
 
 #: relinearisations of the first update, before the first registration again: on vault1 two take the
 #: scan's misfit from 22 to 0.4 mm, near enough for the updated prediction to carry the pose
@@ -181,7 +186,15 @@ def _on_face(posed, xyz, triangles, seed) -> tuple:
     return posed[on], dataclasses.replace(to_pred, per_point=to_pred.per_point[on]), on
 
 
-def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, params):
+def round_subset(n: int, seed) -> np.ndarray:
+    """Indices (sorted) of the scan points a round of the alternation works on: all of them up to
+    :data:`ROUND_POINTS`, else a seeded random subset of that many."""
+    if n <= ROUND_POINTS:
+        return np.arange(n)
+    return np.sort(np.random.default_rng([seed, 3]).choice(n, size=ROUND_POINTS, replace=False))
+
+
+def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, params, clouds=None):
     """The first registration onto the check's lo95 or hi95 prediction when the median's refused the scan:
     (Registration, "lo95" or "hi95", (vertices, triangles) of that face), the one with the larger share of
     inliers; ``refusal`` raised again when both refuse it too.
@@ -203,7 +216,7 @@ def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, par
         run = env.runs[which]
         xyz, _, faces = scanned_face(run)
         try:
-            reg = register(raw, xyz, faces, seed=seed, units=units, name=name, **REGISTRATION)
+            reg = register(raw, xyz, faces, seed=seed, units=units, name=name, clouds=clouds, **REGISTRATION)
         except InputError as err:
             if "inlier_share" not in err.data:
                 raise
@@ -218,12 +231,10 @@ def _register_on_envelope(design, check, raw, refusal, *, seed, units, name, par
 
 
 class _Round(NamedTuple):
-    """One update from a pose: the update, the scan points on the predicted face, their deviation map against it,
-    their mask over the scan, and the scan registered again onto the updated prediction (None until made)."""
+    """One update from a pose: the update, the indices into the scan of the round's points on the predicted face
+    (:func:`round_subset`), and the scan registered again onto the updated prediction (None until made)."""
 
     update: object
-    points: np.ndarray
-    to_prediction: object
     on: np.ndarray
     again: object = None
 
@@ -240,16 +251,16 @@ class _Alternation:
     updates: int
 
 
-def _round(reg, start, settled, *, design, raw, xyz, triangles, check, resolution, params, cut_tolerance, seed,
-           relin, **_) -> _Round:
+def _round(reg, start, settled, *, design, raw, subset, xyz, triangles, check, resolution, params, cut_tolerance,
+           seed, relin, **_) -> _Round:
     """One update from the pose ``reg`` carried on from ``start``; the whole budget ``relin`` once ``settled``, else
     :data:`FIRST_RELINEARISATIONS`."""
     from airmat.asbuilt.update import update
 
-    pts, to_pred, on = _on_face(reg.apply(raw), xyz, triangles, seed)
+    pts, _, on = _on_face(reg.apply(raw[subset]), xyz, triangles, seed)
     upd = update(design, pts, check=check, resolution=resolution, params=params, cut_tolerance=cut_tolerance,
                  seed=seed, max_relinearisations=relin if settled else min(relin, FIRST_RELINEARISATIONS), start=start)
-    return _Round(upd, pts, to_pred, on)
+    return _Round(upd, subset[on])
 
 
 def _units(reg) -> str:
@@ -257,13 +268,14 @@ def _units(reg) -> str:
     return "same" if reg.scale == 1.0 else "m-as-mm"
 
 
-def _reregister(reg, upd, raw, name, seed):
-    """The scan registered again onto ``upd``'s prediction, from the pose ``reg``."""
+def _reregister(reg, upd, raw, name, seed, clouds=None):
+    """The scan registered again onto ``upd``'s prediction, from the pose ``reg``, on ``reg``'s voxels (the scan's
+    reduction kept in ``clouds``, :func:`~airmat.asbuilt.registration.register`)."""
     from airmat.asbuilt.registration import register
 
     learned, _, learned_faces = scanned_face(upd.prediction)
     return register(raw, learned, learned_faces, seed=seed, name=name, init=(reg.rotation, reg.translation),
-                    local=True, units=_units(reg), **REGISTRATION)
+                    local=True, units=_units(reg), voxel=reg.voxel, clouds=clouds, **REGISTRATION)
 
 
 def _alternate(reg, *, first=None, **kw) -> _Alternation:
@@ -287,7 +299,8 @@ def _alternate(reg, *, first=None, **kw) -> _Alternation:
         if registrations > REREGISTRATIONS:
             moved = np.inf
         else:
-            again = done.again if done.again is not None else _reregister(reg, upd, raw, kw["name"], kw["seed"])
+            again = done.again if done.again is not None else _reregister(reg, upd, raw, kw["name"], kw["seed"],
+                                                                          kw["clouds"])
             registrations += 1
             moved = float(np.sqrt(np.mean(np.sum((again.apply(raw[on]) - reg.apply(raw[on])) ** 2, axis=1))))
             log.info("as-built: registered again onto the updated prediction, the points moved %.2f mm RMS and lie "
@@ -318,13 +331,13 @@ def _choose_pose(reg, reference, **kw) -> tuple:
     for rot, trans in reg.alternatives:
         try:
             poses.append(register(raw, *reference, seed=seed, name=name, init=(rot, trans), units=_units(reg),
-                                  **REGISTRATION))
+                                  voxel=reg.voxel, clouds=kw["clouds"], **REGISTRATION))
         except InputError:
             continue
     rounds = []
     for p in poses:
         r = _round(p, None, False, **kw)
-        rounds.append(r._replace(again=_reregister(p, r.update, raw, name, seed)))
+        rounds.append(r._replace(again=_reregister(p, r.update, raw, name, seed, kw["clouds"])))
     misfit = [r.again.rms for r in rounds]
     best = int(np.argmin(misfit))
     log.info("as-built: %d poses of the scan, registered again after one round of the update: %s mm RMS from "
@@ -417,13 +430,14 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
                      f"compared with Ŝ moved the mattress's thickness up, and the correction lands the {surface} "
                      "face there")
     reference = (xyz, triangles)                 # the face the first registration fits
+    clouds = {}                                  # the scan reduced to voxels, once for every registration
     try:
-        reg = register(raw, xyz, triangles, seed=seed, units=units, name=name, **REGISTRATION)
+        reg = register(raw, xyz, triangles, seed=seed, units=units, name=name, clouds=clouds, **REGISTRATION)
     except InputError as err:
         if "inlier_share" not in err.data:       # not a mismatch of shapes (a unit, a bad array): as it is
             raise
         reg, which, reference = _register_on_envelope(design, check, raw, err, seed=seed, units=units, name=name,
-                                                      params=params)
+                                                      params=params, clouds=clouds)
         notes.append(f"the scan did not fit the design's median prediction ({err.message}); it was registered "
                      f"first onto its {which} prediction, then onto what the update learned")
     if reg.n_equivalent > 1:
@@ -437,14 +451,16 @@ def correct(design, scan, *, check=None, resolution: float = 0.020, params: Para
 
     relin = MAX_RELINEARISATIONS if max_relinearisations is None else max_relinearisations
     kw = dict(design=seen, raw=raw, name=name, xyz=xyz, triangles=triangles, check=scanned, resolution=resolution,
-              params=params, cut_tolerance=cut_tolerance, seed=seed, relin=relin)
+              params=params, cut_tolerance=cut_tolerance, seed=seed, relin=relin, clouds=clouds,
+              subset=round_subset(len(raw), seed))
     first = None
     if reg.alternatives and relin > 0:
         reg, first, note = _choose_pose(reg, reference, **kw)
         if note:
             notes.append(note)
     found = _alternate(reg, first=first, **kw)
-    upd, reg, pts, to_pred = found.last.update, found.registration, found.last.points, found.last.to_prediction
+    upd, reg = found.last.update, found.registration
+    pts, to_pred, _ = _on_face(reg.apply(raw), xyz, triangles, seed)     # every scan point, for the maps
     if found.updates > 1:
         head = f"converged after {found.linearisations} linearisations" if upd.converged else upd.message
         upd = dataclasses.replace(upd, iterations=found.linearisations, inflations=found.inflations,

@@ -10,7 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from airmat.asbuilt.pipeline import REGISTRATION, correct, scanned_face
+import airmat.asbuilt.pipeline as pipeline
+from airmat.asbuilt.pipeline import REGISTRATION, correct, round_subset, scanned_face
 from airmat.errors import InputError
 from airmat.asbuilt.registration import register
 from airmat.asbuilt.true_world import built_world, median_world
@@ -21,6 +22,17 @@ from airmat.design.presets import preset
 from airmat.synthetic.built_scan import SURFACE, scan_surface
 
 RESOLUTION = 0.04
+
+
+def vault1_with_posterior():
+    """vault1 (open loop) designed with a narrow test posterior of (Δ, d); (design, that posterior)."""
+    target, mattress = preset("vault1")
+    d = design(target, mattress, params=DesignParams(), progress=False)
+    rng = np.random.default_rng(3)
+    cal = CalibrationSource(L=d.calibration.L, delta=rng.normal(0.0179, 0.0004, 2000),
+                            d=rng.normal(0.0689, 0.0025, 2000), source="test", uncalibrated=False,
+                            label="test posterior", sigma=None)
+    return replace(d, calibration=cal), cal
 
 
 def built_and_scanned(d, cal):
@@ -50,13 +62,7 @@ def pose_error(reg, scan) -> float:
 
 @pytest.mark.slow
 def test_registering_again_onto_the_updated_prediction_finds_the_pose_the_first_registration_missed():
-    target, mattress = preset("vault1")
-    d = design(target, mattress, params=DesignParams(), progress=False)
-    rng = np.random.default_rng(3)
-    cal = CalibrationSource(L=d.calibration.L, delta=rng.normal(0.0179, 0.0004, 2000),
-                            d=rng.normal(0.0689, 0.0025, 2000), source="test", uncalibrated=False,
-                            label="test posterior", sigma=None)
-    d = replace(d, calibration=cal)
+    d, cal = vault1_with_posterior()
     chk, world, scan = built_and_scanned(d, cal)
     first = register_on_median(scan, chk)
     res = correct(d, scan.points, check=chk, resolution=RESOLUTION, seed=0)
@@ -68,6 +74,34 @@ def test_registering_again_onto_the_updated_prediction_finds_the_pose_the_first_
     truth = np.array([world.delta, world.d])
     assert res.update.converged and np.all((lo <= truth) & (truth <= hi)), (lo, hi, truth)
     assert "registrations" in res.update.message
+
+
+def test_a_round_works_on_a_seeded_subset_of_a_large_scan():
+    small = round_subset(1000, seed=0)
+    np.testing.assert_array_equal(small, np.arange(1000))
+    n = pipeline.ROUND_POINTS + 12_345
+    a, b = round_subset(n, seed=0), round_subset(n, seed=0)
+    np.testing.assert_array_equal(a, b)
+    assert len(a) == pipeline.ROUND_POINTS and len(np.unique(a)) == len(a) and np.all(np.diff(a) > 0)
+    assert a[-1] < n and not np.array_equal(a, round_subset(n, seed=1))
+
+
+@pytest.mark.slow
+def test_rounds_on_a_subset_of_the_scan_find_the_pose_and_the_world_and_the_maps_keep_every_point(monkeypatch):
+    """The vault1 world of the first test with the rounds on 20 000 of the scan's points (the update's own subset
+    and the registrations' voxels unchanged): the pose and the world are found as with every point, and the
+    deviation maps written at the end hold every scan point on the face."""
+    monkeypatch.setattr(pipeline, "ROUND_POINTS", 20_000)
+    d, cal = vault1_with_posterior()
+    chk, world, scan = built_and_scanned(d, cal)
+    res = correct(d, scan.points, check=chk, resolution=RESOLUTION, seed=0)
+    assert pose_error(res.registration, scan) < 0.001
+    lo, hi = res.update.interval95
+    truth = np.array([world.delta, world.d])
+    assert res.update.converged and np.all((lo <= truth) & (truth <= hi)), (lo, hi, truth)
+    on_face = np.count_nonzero(scan.labels == SURFACE)
+    assert len(res.points) > 20_000 and len(res.points) > 0.9 * on_face
+    assert len(res.to_prediction.per_point) == len(res.points)
 
 
 @pytest.mark.slow

@@ -156,6 +156,30 @@ def test_a_local_registration_from_a_near_pose_refines_it_without_a_search(offse
     assert again.iterations < reg.iterations / 3 and again.alternatives == ()
 
 
+def test_registrations_of_one_scan_reduce_it_to_voxels_once(monkeypatch):
+    """With a cache (``clouds``) and the first registration's voxel, a second registration of the same scan takes
+    the reduced scan from the cache and gives the pose it gives without it, bit for bit."""
+    import airmat.asbuilt.registration as registration
+
+    calls = []
+    prepare = registration.prepare_scan
+    monkeypatch.setattr(registration, "prepare_scan", lambda *a, **k: calls.append(a[1]) or prepare(*a, **k))
+    v, f = reference_mesh("cylinder")
+    pts, top = synthetic_scan("cylinder", seed=2, n=10_000)
+    moved = move(pts, 2)
+    clouds = {}
+    first = register(moved, v, f, seed=0, clouds=clouds)
+    assert first.voxel == pytest.approx(np.linalg.norm(np.ptp(v, axis=0)) / 150)
+    start = (first.rotation, first.translation)
+    cached = register(moved, v, f, seed=0, init=start, local=True, voxel=first.voxel, clouds=clouds)
+    assert calls == [first.voxel] and len(clouds) == 1
+    fresh = register(moved, v, f, seed=0, init=start, local=True, voxel=first.voxel)
+    assert len(calls) == 2
+    np.testing.assert_array_equal(cached.rotation, fresh.rotation)
+    np.testing.assert_array_equal(cached.translation, fresh.translation)
+    assert recovered_rms(cached, moved[top], pts[top]) < 1e-3
+
+
 def test_same_seed_same_result():
     v, f = reference_mesh("saddle")
     pts, _ = synthetic_scan("saddle", seed=6, n=8_000)
