@@ -10,8 +10,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import airmat.asbuilt.pipeline as pipeline
-from airmat.asbuilt.pipeline import REGISTRATION, correct, round_subset, scanned_face
+import airmat.asbuilt.alternation as alternation
+from airmat.asbuilt.alternation import REGISTRATION, round_subset, scanned_face
+from airmat.asbuilt.pipeline import correct
 from airmat.errors import InputError
 from airmat.asbuilt.registration import register
 from airmat.asbuilt.true_world import built_world, median_world
@@ -79,10 +80,10 @@ def test_registering_again_onto_the_updated_prediction_finds_the_pose_the_first_
 def test_a_round_works_on_a_seeded_subset_of_a_large_scan():
     small = round_subset(1000, seed=0)
     np.testing.assert_array_equal(small, np.arange(1000))
-    n = pipeline.ROUND_POINTS + 12_345
+    n = alternation.ROUND_POINTS + 12_345
     a, b = round_subset(n, seed=0), round_subset(n, seed=0)
     np.testing.assert_array_equal(a, b)
-    assert len(a) == pipeline.ROUND_POINTS and len(np.unique(a)) == len(a) and np.all(np.diff(a) > 0)
+    assert len(a) == alternation.ROUND_POINTS and len(np.unique(a)) == len(a) and np.all(np.diff(a) > 0)
     assert a[-1] < n and not np.array_equal(a, round_subset(n, seed=1))
 
 
@@ -91,7 +92,7 @@ def test_rounds_on_a_subset_of_the_scan_find_the_pose_and_the_world_and_the_maps
     """The vault1 world of the first test with the rounds on 20 000 of the scan's points (the update's own subset
     and the registrations' voxels unchanged): the pose and the world are found as with every point, and the
     deviation maps written at the end hold every scan point on the face."""
-    monkeypatch.setattr(pipeline, "ROUND_POINTS", 20_000)
+    monkeypatch.setattr(alternation, "ROUND_POINTS", 20_000)
     d, cal = vault1_with_posterior()
     chk, world, scan = built_and_scanned(d, cal)
     res = correct(d, scan.points, check=chk, resolution=RESOLUTION, seed=0)
