@@ -66,8 +66,10 @@ def load_entry(entry, folder: Path):
     return load_target(path, units=entry.units, name=entry.name, mattress=mattress), mattress
 
 
-def run_entry(entry, *, resolution: float, spacing: float, max_iter: int, folder: Path) -> dict:
-    """Design, refine and inflate one zoo entry; the row's numbers (SI) and the exit code."""
+def run_entry(entry, *, resolution: float, spacing: float, max_iter: int, folder: Path, design_kw=None) -> dict:
+    """Design, refine and inflate one zoo entry; the row's numbers (SI) and the exit code.
+
+    ``design_kw``: fields of ``DesignParams`` set beside ``spacing`` (default: the designer's defaults)."""
     from airmat.check.inflation_check import check
     from airmat.check.refinement import refine
     from airmat.design.pipeline import DesignParams, design
@@ -77,7 +79,7 @@ def run_entry(entry, *, resolution: float, spacing: float, max_iter: int, folder
     t0 = time.perf_counter()
     try:
         target, mattress = load_entry(entry, folder)
-        result = design(target, mattress, params=DesignParams(spacing=spacing), progress=False)
+        result = design(target, mattress, params=DesignParams(spacing=spacing, **(design_kw or {})), progress=False)
     except InputError as err:
         return {**row, "exit": BAD_INPUT, "seconds": time.perf_counter() - t0, "message": err.message}
     except ConvergenceError as err:
@@ -149,7 +151,9 @@ def main(argv=None) -> int:
     ap.add_argument("--spacing-mm", type=float, default=None, help="Ω's mesh for the design (default: the resolution)")
     ap.add_argument("--max-iter", type=int, default=20, help="Gauss–Newton iterations of the refinement (default 20)")
     ap.add_argument("--seed", type=int, default=0, help="the zoo's seed")
+    ap.add_argument("--end-dashes", choices=("on", "off"), help="shorter end dashes (default: the designer's default)")
     args = ap.parse_args(argv)
+    design_kw = {} if args.end_dashes is None else {"end_dashes": args.end_dashes == "on"}
     if args.quick:
         args.only, args.resolution_mm, args.max_iter = list(args.only or QUICK), 40.0, 2
     known = names(seed=args.seed)
@@ -164,7 +168,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for entry in entries:
             row = run_entry(entry, resolution=args.resolution_mm * MM, spacing=spacing, max_iter=args.max_iter,
-                            folder=Path(tmp))
+                            folder=Path(tmp), design_kw=design_kw)
             rows.append(row)
             print(format_row(row), flush=True)
     miss = misses(rows)
