@@ -70,5 +70,6 @@ def _coverage_after(design, strings):
     sp = params.stripe_params(params.L)
     dashes, _ = snap_dashes(design.stripes.dashes, grid=params.tie_grid, width=m.width, height=m.height)
     cover = pattern_coverage(design.mfield, strings, dashes, design.approx.uv, width=m.width, height=m.height,
-                             kappa_min=params.kappa_min, L=params.L, mu2=sp.mu2, margin=sp.margin)
+                             kappa_min=params.kappa_min, L=params.L, mu2=sp.mu2, margin=sp.margin,
+                             end_dashes=sp.end_dashes)
     return cover.summary_mm(), tuple(f"after the refinement: {n}" for n in cover.notes())

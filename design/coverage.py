@@ -83,10 +83,14 @@ class FamilyCoverage:
 
 @dataclass(frozen=True)
 class Coverage:
-    """Coverage of both families (``families['k1' | 'k2']``) and the notes it gives."""
+    """Coverage of both families (``families['k1' | 'k2']``) and the notes it gives.
+
+    ``end_dashes``: the pattern cut shorter dashes from the line ends (an edge band's note then does not
+    suggest them)."""
 
     families: dict
     L: float
+    end_dashes: bool = False
 
     def notes(self) -> tuple:
         """One note per family with an unstrung band wider than its limit, saying why it is empty."""
@@ -101,7 +105,10 @@ class Coverage:
             if c.edge_band_max > c.limit:
                 out.append(f"{fam}: a band up to {c.edge_band_max * 1e3:.0f} mm wide along the mattress edge has "
                            f"no {fam} string: no whole dash of L = {self.L * 1e3:.0f} mm fits between the last "
-                           f"string and the edge, and Equation 3 is calibrated at that L only")
+                           f"string and the edge, and Equation 3 is calibrated at that L only"
+                           + ("" if self.end_dashes else
+                              "; --end-dashes (DesignParams(end_dashes=True)) cuts shorter dashes there, which "
+                              "strongly curved targets need (docs/guide/design.md)"))
             if c.weak_band_max > c.limit:
                 out.append(f"{fam}: up to {c.weak_band_max * 1e3:.0f} mm from a {fam} string where |kappa| is above "
                            f"the threshold (median {c.weak_kappa:.2f} 1/m): the dashes there get no string because "
@@ -138,7 +145,7 @@ def _max(x, mask) -> float:
 
 
 def pattern_coverage(mfield, strings, dashes, uv, *, width: float, height: float, kappa_min: float, L: float,
-                     mu2: float, margin: float) -> Coverage:
+                     mu2: float, margin: float, end_dashes: bool = False) -> Coverage:
     """Measure how far the points of Ω that need strings lie from them.
 
     Parameters
@@ -156,6 +163,8 @@ def pattern_coverage(mfield, strings, dashes, uv, *, width: float, height: float
         A family needs strings where its |κ| is at least this (1/m).
     L, mu2, margin : float
         Dash arc length, line spacing and edge margin of the pattern (m).
+    end_dashes : bool
+        The pattern has shorter end dashes (:class:`~airmat.design.stripes.StripeParams`).
 
     Returns
     -------
@@ -204,4 +213,4 @@ def pattern_coverage(mfield, strings, dashes, uv, *, width: float, height: float
         fams[fam] = FamilyCoverage(int(need.sum()), float(np.percentile(gap, 95)), float(gap.max()),
                                    _max(gap, hole), _max(gap, edge), limit, _max(gap, weak),
                                    float(np.median(kap[need][wide_weak])) if wide_weak.any() else float("nan"))
-    return Coverage(families=fams, L=float(L))
+    return Coverage(families=fams, L=float(L), end_dashes=bool(end_dashes))

@@ -304,7 +304,8 @@ def design(target, mattress, *, calibration=None,
                              approx=approx if params.free_face_span else None,
                              kappa_min=params.kappa_min, notes=stripes.notes, tie_grid=snap)
     cover = pattern_coverage(mfield, pattern.strings, dashes, approx.uv, width=mattress.width,
-                             height=mattress.height, kappa_min=params.kappa_min, L=L, mu2=sp.mu2, margin=sp.margin)
+                             height=mattress.height, kappa_min=params.kappa_min, L=L, mu2=sp.mu2, margin=sp.margin,
+                             end_dashes=sp.end_dashes)
     for note in cover.notes():
         log.info(note)
     pattern = dataclasses.replace(pattern, notes=pattern.notes + cover.notes() + _span_notes(L, calibration),

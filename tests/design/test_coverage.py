@@ -24,10 +24,10 @@ def _lines(us, v0=MARGIN, n=2, family="k1", sign=1.0):
     return out
 
 
-def _cov(field, strings, dashes=None):
+def _cov(field, strings, dashes=None, end_dashes=False):
     dashes = [s.dash for s in strings] if dashes is None else dashes
     return pattern_coverage(field, strings, dashes, grid_uv(W, H, 0.01), width=W, height=H, kappa_min=0.25, L=L,
-                            mu2=MU2, margin=MARGIN)
+                            mu2=MU2, margin=MARGIN, end_dashes=end_dashes)
 
 
 @pytest.fixture(scope="module")
@@ -46,6 +46,9 @@ def test_full_pattern_is_covered_and_its_end_bands_are_explained(field):
     notes = c.notes()
     assert len(notes) == 1 and "no whole dash of L = 300 mm fits" in notes[0] and notes[0].startswith("k1")
     assert c.families["k2"].n_need == 0
+    # whole dashes only: the note says what fills the band; with end dashes (the band remains) it does not
+    assert "--end-dashes" in notes[0]
+    assert "--end-dashes" not in _cov(field, strings, end_dashes=True).notes()[0]
 
 
 def test_a_missing_line_is_an_interior_gap_and_named(field):
@@ -89,3 +92,16 @@ def test_default_design_of_a_cylinder_leaves_no_hole():
     # whatever band is left along the edge is explained in the notes
     if cov["k1"]["edge_band_max_mm"] > cov["k1"]["limit_mm"]:
         assert any("no whole dash" in n for n in r.pattern.notes)
+
+
+def test_the_design_notes_suggest_end_dashes_for_an_edge_band_only_when_they_are_off():
+    """vault1's k1 lines end in a 153 mm band without strings; with end dashes it shrinks to 113 mm (still
+    over the 80 mm limit) and the note no longer suggests them."""
+    from airmat.design.pipeline import DesignParams, design
+    from airmat.design.presets import preset
+
+    target, mattress = preset("vault1")
+    notes = {ed: [n for n in design(target, mattress, params=DesignParams(end_dashes=ed), progress=False).pattern.notes
+                  if "band up to" in n] for ed in (False, True)}
+    assert notes[False] and all("--end-dashes" in n for n in notes[False])
+    assert notes[True] and not any("--end-dashes" in n for n in notes[True])
