@@ -17,7 +17,7 @@ A kept string's δr is fixed at its built one (the rest length of l + ê in (Δ�
 trust radius (:data:`TRUST_RADIUS`, at least the string's built δr: undoing the world is
 always allowed), α the refinement's weight
 (:class:`airmat.check.refinement_result.RefineOptions`) and the bounds the refinement's
-(:func:`airmat.check.refinement.length_bounds`: the shortest a tie allows, the flat span).
+(:func:`airmat.check.refine_setup.length_bounds`: the shortest a tie allows, the flat span).
 A full :func:`airmat.check.refinement.refine` is about four inflations; this step costs a
 least-squares solve on a (3N, k) matrix, plus, optionally, one verification inflation. Each
 new rest length is turned into the effective real length that gives it in the world (Δ̂, d̂) by
@@ -50,7 +50,7 @@ from scipy.optimize import lsq_linear
 from airmat.asbuilt.chain_slopes import world_slopes
 from airmat.check.compare import deviation
 from airmat.check.refined_design import refined_design
-from airmat.check.refinement import length_bounds
+from airmat.check.refine_setup import length_bounds
 from airmat.check.refinement_result import RefineOptions
 from airmat.check.string_world import world_strings
 from airmat.constants import CUT_TOLERANCE

@@ -44,7 +44,8 @@ def run(args) -> int:
     from airmat.cli._exit import not_converged
     from airmat.cli.sigint import staged
     from airmat.units import MM
-    from airmat.check.refinement import check_refinable, refine
+    from airmat.check.refine_setup import check_refinable
+    from airmat.check.refinement import refine
     from airmat.design.design_io import read_design, write_design
     from airmat.report.page import write_report
 

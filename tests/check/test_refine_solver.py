@@ -309,13 +309,13 @@ def test_the_damping_shrinks_only_after_an_iteration_whose_first_step_was_taken(
 
 def test_the_default_rms_step_of_the_stopping_rule_is_a_share_of_the_mattress_diagonal():
     """0.05 mm on the small mattress, in proportion on the large one; an explicit rms_tol is kept."""
-    from airmat.check.refinement import _solver_options
+    from airmat.check.refine_setup import solver_options
     from airmat.check.refinement_result import RefineOptions
     from airmat.design.mattress import Mattress
 
     def tol(width, height, **kw):
         setup = SimpleNamespace(upper=np.array([0.3]), design=SimpleNamespace(mattress=Mattress(width, height)))
-        return _solver_options(setup, RefineOptions(**kw))["rms_tol"]
+        return solver_options(setup, RefineOptions(**kw))["rms_tol"]
 
     small, large = tol(0.83, 0.74), tol(2.6, 1.6)
     assert small == pytest.approx(5.0e-5, rel=1e-3)
