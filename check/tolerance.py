@@ -315,7 +315,7 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
         Draws of the Gaussian model.
     spread_correction : bool
         Scale the model's change A δl* by the validation's
-        :func:`~airmat.check.tolerance_validation.spread_scale` (the full samples' spread about their mean
+        :func:`~airmat.check.pair_statistics.spread_scale` (the full samples' spread about their mean
         against the model's, shrunk toward 1 by its standard error); False: the first-order spread.
 
     Returns

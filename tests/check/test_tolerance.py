@@ -17,8 +17,9 @@ from airmat.check.length_covariance import length_covariance  # noqa: E402
 from airmat.check.monte_carlo import draw  # noqa: E402
 from airmat.check.face_linearization import align_faces  # noqa: E402
 from airmat.check.tolerance import density_at, tolerance  # noqa: E402
-from airmat.check.tolerance_validation import (RELIABLE_ERROR, Validation, antithetic, pair_statistics,  # noqa: E402
-                                               rms_shift_se, spread_scale, variance_ratio)
+from airmat.check.pair_statistics import (antithetic, pair_statistics, rms_shift_se, spread_scale,  # noqa: E402
+                                          variance_ratio)
+from airmat.check.tolerance_validation import RELIABLE_ERROR, Validation  # noqa: E402
 from airmat.errors import InputError  # noqa: E402
 from airmat.inflation.simulate import inflate_from  # noqa: E402
 
