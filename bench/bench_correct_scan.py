@@ -37,9 +37,9 @@ PY = sys.executable
 def airmat(tree: Path, *args, cwd: Path) -> float:
     """Run ``airmat ARGS`` with ``airmat`` and its subpackages imported from ``tree`` (not the editable install's
     tree: ``bench_startup``'s finder); its wall time (s)."""
-    from bench_startup import _finder
+    from bench_startup import tree_finder
 
-    code = _finder(tree) + f"import runpy\nsys.argv = ['airmat', *{list(args)!r}]\nrunpy.run_module('airmat', run_name='__main__')\n"
+    code = tree_finder(tree) + f"import runpy\nsys.argv = ['airmat', *{list(args)!r}]\nrunpy.run_module('airmat', run_name='__main__')\n"
     env = {**os.environ, "PYTHONPATH": str(tree)}
     t = time.perf_counter()
     subprocess.run([PY, "-c", code], cwd=cwd, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

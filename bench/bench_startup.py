@@ -55,7 +55,7 @@ def package_dirs(tree: Path) -> dict[str, str]:
     return {name: str(tree / folder) for name, folder in dirs.items()}
 
 
-def _finder(tree: Path) -> str:
+def tree_finder(tree: Path) -> str:
     """Code that makes ``airmat`` and its subpackages import from ``tree`` (run before each case)."""
     return ("import sys\nfrom importlib.util import spec_from_file_location as _spec\n"
             f"_DIRS = {package_dirs(tree)!r}\n"
@@ -98,7 +98,7 @@ def _env(tree: Path) -> dict:
 
 def wall_time(tree: Path, code: str) -> float:
     """Seconds for a fresh interpreter to run ``code`` with ``tree`` on the path."""
-    code = _finder(tree) + code
+    code = tree_finder(tree) + code
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], env=_env(tree), cwd=tree, check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -107,7 +107,7 @@ def wall_time(tree: Path, code: str) -> float:
 
 def loaded(tree: Path, code: str) -> list[str]:
     """The heavy packages in ``sys.modules`` after ``code`` (top level; airmat's by subpackage)."""
-    probe = (_finder(tree) + code + "\nimport sys, json\n"
+    probe = (tree_finder(tree) + code + "\nimport sys, json\n"
              "print(json.dumps(sorted({'.'.join(m.split('.')[:2 if m.startswith('airmat.') else 1]) "
              "for m in sys.modules})))")
     out = subprocess.run([sys.executable, "-c", probe], env=_env(tree), cwd=tree, check=True,
@@ -121,7 +121,7 @@ def top_imports(tree: Path, code: str, k: int) -> list[tuple[str, float]]:
 
     A package's time is its largest cumulative entry (the first import of any of its modules).
     """
-    err = subprocess.run([sys.executable, "-X", "importtime", "-c", _finder(tree) + code], env=_env(tree), cwd=tree,
+    err = subprocess.run([sys.executable, "-X", "importtime", "-c", tree_finder(tree) + code], env=_env(tree), cwd=tree,
                          check=True, capture_output=True, text=True).stderr
     best: dict[str, float] = {}
     for line in err.splitlines():
