@@ -25,7 +25,7 @@ BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py", "be
            "bench_startup.py", "bench_assembly.py", "bench_jacobian_solve.py", "bench_zoo.py",
            "bench_plan.py", "bench_tolerance.py", "bench_registration.py", "bench_newton_rule.py", "bench_correct.py",
            "bench_correct_scan.py",
-           "bench_end_dashes.py", "bench_ua_solver.py"]
+           "bench_end_dashes.py", "bench_ua_solver.py", "bench_ua_hessian.py"]
 
 
 def main(argv=None) -> int:

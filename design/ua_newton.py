@@ -13,19 +13,28 @@ The Hessian H, per block of a vertex's three coordinates:
 
 - A1, per edge: k_A1 (t tᵀ + max(0, 1 − ε0/ε) (I − t tᵀ)), t the unit edge: the
   exact Hessian where the edge is stretched, its positive part where it is
-  compressed (projected Newton: H stays positive semi-definite);
+  compressed (projected Newton: H stays positive semi-definite). A Ŝ that
+  contracts (a dome, whose rim gathers into folds) then converges only
+  linearly. ``exact_after=k`` takes the exact term, 1 − ε0/ε, from iteration
+  k + 1 on (the shift μ keeps it definite): the same tolerance in 1.3–3× less
+  time on the folded designs, but another of U_A's minima, other folds, and
+  the dome preset's refined inflation from 2.58 to 2.5–5.1 % of the diagonal
+  as k varies (``bench/bench_ua_hessian.py --refine``; docs/decisions.md), so
+  projected Newton stays the default;
 - A2, per vertex: k_A2 n nᵀ, n the normal of S at the closest point (the exact
   Hessian of ½ dist² on S, dropping terms of order dist · κ);
 - A3: k_A3 LᵀL, constant.
 
-Each iteration solves (H + μ I) p = −∇U_A (H + μ I is positive definite by
-construction) by the sparse Cholesky the inflation uses (CHOLMOD, ordered and analysed once on the fixed
+Each iteration solves (H + μ I) p = −∇U_A (H + μ I positive definite: by
+construction while H is projected, by the shift μ after) by the sparse Cholesky the inflation uses (CHOLMOD, ordered and analysed once on the fixed
 pattern: :class:`airmat.inflation.cholesky.ShiftedCholesky`; the zoo's egg-crate target's 298 factorizations take
 2.5 s where scipy's SuperLU took 12.8 s), and backtracks along p until U_A, with the closest points
 projected again at the trial positions, falls by the Armijo fraction. The shift
 μ (a Levenberg–Marquardt damping, ≥ ``MU_MIN`` × k_A1) keeps H + μ I definite
-along the motions no term resists (Ω sliding along a cylinder's axis), grows
-when a step is refused and shrinks when a full step is taken.
+along the motions no term resists (Ω sliding along a cylinder's axis) and,
+with the exact A1 term, where H is indefinite; it grows ×10 when a
+factorization finds H + μ I indefinite or a step is refused, and shrinks ÷3
+when a full step is taken.
 
 Stopping rule: that of airmat.design.local_global (the largest force below ``tol``
 × k_A1 × h); or ``"stall"`` when no step along the damped Newton direction lowers
@@ -113,13 +122,16 @@ def _gradient(prob, x, cp):
     return k1 * (prob.inc.T @ pull) + k2 * (x - cp) + k3 * (prob.lap.T @ (prob.lap @ x))
 
 
-def _hessian(prob, pattern, x, normal):
+def _hessian(prob, pattern, x, normal, exact: bool = False):
+    """H (3n, 3n) at x: A1's exact Hessian per edge (``exact``) or with a compressed edge's negative transverse
+    stiffness dropped, A2's k_A2 n nᵀ, A3's constant k_A3 LᵀL."""
     k1, k2, _ = prob.k
     d = prob.inc @ x
     length = np.maximum(np.linalg.norm(d, axis=1), 1e-12 * prob.h)
     t = d / length[:, None]
     tt = t[:, :, None] * t[:, None, :]
-    c = np.maximum(1.0 - prob.rest / length, 0.0)[:, None, None]
+    c = 1.0 - prob.rest / length
+    c = (c if exact else np.maximum(c, 0.0))[:, None, None]
     a1 = k1 * (tt + c * (np.eye(3) - tt))
     a2 = k2 * normal[:, :, None] * normal[:, None, :]
     return pattern.matrix(a1, a2)
@@ -154,7 +166,7 @@ def slide_constraints(x, normal) -> np.ndarray:
     return rows.reshape(3, -1)
 
 
-def newton(prob, x, *, tol: float, max_iter: int, bar=None, hold: bool = True):
+def newton(prob, x, *, tol: float, max_iter: int, bar=None, hold: bool = True, exact_after: int | None = None):
     """Minimise U_A from x by damped projected Newton with a line search.
 
     Parameters
@@ -172,6 +184,9 @@ def newton(prob, x, *, tol: float, max_iter: int, bar=None, hold: bool = True):
     hold : bool, default True
         Hold Ω's place on S (:func:`slide_constraints` at ``x``): the mean tangential
         position and the mean turn about the normal stay those of the start.
+    exact_after : int, optional
+        Iterations with the projected A1 Hessian before the exact one (the shift μ keeping it definite);
+        default None: projected throughout.
 
     Returns
     -------
@@ -216,7 +231,7 @@ def newton(prob, x, *, tol: float, max_iter: int, bar=None, hold: bool = True):
         if residual < tol:
             status = "force"
             break
-        hess = _hessian(prob, pattern, x, normal)
+        hess = _hessian(prob, pattern, x, normal, exact=exact_after is not None and it > exact_after)
         if not np.isfinite(hess.data).all():
             raise ConvergenceError("U_A relaxation diverged: non-finite Newton matrix", n_iter=it)
         step = None

@@ -40,6 +40,7 @@ HEADERS = {
     "bench_specimen.py": ["κ₁ polygon (1/m)", "Equation 3 (1/m)", "side / L*"],
     "bench_tolerance.py": ["| preset | mesh (mm) | strings | K |", "validation: spread error, scale s / per-sample error",
                            "95 % band: median rel. diff"],
+    "bench_ua_hessian.py": ["projected: design (s)", "exact after", "Newton iterations", "refined % diag"],
     "bench_ua_solver.py": ["SuperLU: design (s)", "CHOLMOD: design (s)", "largest Ŝ difference (mm)"],
     "bench_startup.py": ["current (s)", "loaded now", "| path | HEAD | current |"],
     "bench_zoo.py": ["| target | kind |", "open loop % diag", "to S: RMS mm (% diag)", "| exit |", "| folds |",
