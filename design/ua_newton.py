@@ -16,10 +16,10 @@ The Hessian H, per block of a vertex's three coordinates:
   compressed (projected Newton: H stays positive semi-definite). A Ŝ that
   contracts (a dome, whose rim gathers into folds) then converges only
   linearly. ``exact_after=k`` takes the exact term, 1 − ε0/ε, from iteration
-  k + 1 on (the shift μ keeps it definite): the same tolerance in 1.3–3× less
-  time on the folded designs, but another of U_A's minima, other folds, and
-  the dome preset's refined inflation from 2.58 to 2.5–5.1 % of the diagonal
-  as k varies (``bench/bench_ua_hessian.py --refine``; docs/decisions.md), so
+  k + 1 on (the shift μ keeps it definite): the same tolerance in 1.4–3.2× less
+  time on the designs that fold or contract, but another of U_A's minima,
+  other folds, and the dome preset's refined inflation from 2.58 to 2.46–5.08 %
+  of the diagonal as k varies (``bench/bench_ua_hessian.py --refine``; docs/decisions.md), so
   projected Newton stays the default;
 - A2, per vertex: k_A2 n nᵀ, n the normal of S at the closest point (the exact
   Hessian of ½ dist² on S, dropping terms of order dist · κ);
