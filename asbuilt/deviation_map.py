@@ -111,6 +111,7 @@ def deviation_map(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray, *
     """
     from pykdtree.kdtree import KDTree
 
+    from airmat.asbuilt.spatial_order import inverse, spatial_order
     from airmat.asbuilt.surface_icp import sample_surface
 
     p = _shape_check(points, "points")
@@ -122,7 +123,10 @@ def deviation_map(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray, *
         radius = float(np.linalg.norm(v[f[:, 1]] - v[f[:, 0]], axis=1).mean())
     samples, normals, _ = sample_surface(v, f, n_samples, seed=seed)
     spacing = np.sqrt(_area(v, f) / n_samples)
-    dist, idx = KDTree(samples).query(p, k=1, distance_upper_bound=max_distance + 2 * spacing)
+    order = spatial_order(p)            # the same answers, 2-3x sooner on a scan in file order
+    dist, idx = KDTree(samples).query(p[order], k=1, distance_upper_bound=max_distance + 2 * spacing)
+    back = inverse(order)
+    dist, idx = dist[back], idx[back]
     found = np.isfinite(dist)
     idx = np.where(found, idx, 0)
     e = p - samples[idx]

@@ -48,7 +48,8 @@ def robust_extent(points: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class ScanCloud:
-    """The scan off the floor: voxel centroids and a random subset of its points, with normals."""
+    """The scan off the floor: voxel centroids and a random subset of its points (in spatial order:
+    :func:`airmat.asbuilt.spatial_order.spatial_order`), with normals."""
 
     voxels: np.ndarray
     voxel_normals: np.ndarray
@@ -60,6 +61,7 @@ class ScanCloud:
 def prepare_scan(scan, voxel, *, remove_floor, seed, name) -> ScanCloud:
     """Voxel centroids (their normals from their 12 neighbours), the floor removed, and up to
     ``_N_FINE`` scan points off the floor, each with its voxel's normal."""
+    from airmat.asbuilt.spatial_order import spatial_order
     from airmat.calib.voxel_grid import voxel_moments
 
     inverse, _, pts, _ = voxel_moments(scan, voxel)
@@ -70,6 +72,7 @@ def prepare_scan(scan, voxel, *, remove_floor, seed, name) -> ScanCloud:
                          f"{voxel * 1e3:.1f} mm): is it a scan of the mattress?", n_points=int(np.count_nonzero(keep)))
     raw = np.flatnonzero(keep[inverse])
     raw = np.sort(np.random.default_rng(seed).permutation(raw)[:_N_FINE])
+    raw = raw[spatial_order(scan[raw])]     # ICP's nearest-sample queries walk the tree in step
     message = (f"{len(scan)} points, {len(pts)} voxels of {voxel * 1e3:.1f} mm, "
                f"{np.count_nonzero(~keep)} on or below the floor")
     return ScanCloud(voxels=pts[keep], voxel_normals=normals[keep], points=scan[raw], normals=normals[inverse[raw]],

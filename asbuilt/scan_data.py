@@ -11,6 +11,8 @@ At most :data:`MAX_POINTS` points are used (:func:`scan_subset`, a seeded random
 
 from __future__ import annotations
 
+import dataclasses
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +73,7 @@ def scan_data(points, face_xyz, faces) -> ScanData:
     """
     from trimesh.triangles import points_to_barycentric
 
+    from airmat.asbuilt.spatial_order import inverse, spatial_order
     from airmat.design.closest_point import MeshProjector
 
     points = np.asarray(points, float)
@@ -78,7 +81,10 @@ def scan_data(points, face_xyz, faces) -> ScanData:
         raise InputError(f"scan points: expected an array of shape (M, 3), got {points.shape}")
     n = len(face_xyz)
     keep = np.all(np.isfinite(points), axis=1)
-    near = MeshProjector(face_xyz, faces).closest(points[keep])
+    order = spatial_order(points[keep])      # the same closest points, about 2x sooner (airmat.asbuilt.spatial_order)
+    near = MeshProjector(face_xyz, faces).closest(points[keep][order])
+    back = inverse(order)
+    near = dataclasses.replace(near, **{f.name: getattr(near, f.name)[back] for f in dataclasses.fields(near)})
     ok = ~near.on_rim & np.all(np.isfinite(near.points), axis=1)
     p, cp, f = points[keep][ok], near.points[ok], near.face[ok]
     tri = face_xyz[faces[f]]
