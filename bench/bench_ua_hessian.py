@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -35,22 +34,12 @@ import numpy as np  # noqa: E402
 import airmat.design.relax as relax_module  # noqa: E402
 import airmat.design.ua_newton as ua  # noqa: E402
 from airmat.check.refinement import refine  # noqa: E402
-from airmat.design.mattress import Mattress  # noqa: E402
 from airmat.design.pipeline import design  # noqa: E402
-from airmat.design.presets import preset  # noqa: E402
-from airmat.synthetic.zoo import zoo  # noqa: E402
+from bench_ua_solver import PRESETS, commit, target_and_mattress  # noqa: E402
 
-PRESETS = ("vault1", "saddle", "dome")
 ZOO = ("hypar-1.0-k2", "helicoid-p500", "wave-once", "egg-crate", "dome-r450", "hypar-1.0-strong")
 #: the switch compared with projected Newton by default
 EXACT_AFTER = 15
-
-
-def _target(name):
-    if name in PRESETS:
-        return preset(name)
-    entry = next(e for e in zoo() if e.name == name)
-    return entry, Mattress(*entry.mattress)
 
 
 def _designed(name, exact_after, refined: bool) -> dict:
@@ -76,7 +65,7 @@ def _designed(name, exact_after, refined: bool) -> dict:
 
     relax_module.newton, ua._Pattern.cholesky = newton, cholesky
     try:
-        target, mattress = _target(name)
+        target, mattress = target_and_mattress(name)
         t0 = time.perf_counter()
         d = design(target, mattress, progress=False)
         seconds = time.perf_counter() - t0
@@ -88,14 +77,6 @@ def _designed(name, exact_after, refined: bool) -> dict:
     return {**counts, "seconds": seconds, "xyz": d.approx.xyz, "strings": len(d.pattern.strings), "folds": folds,
             "sigma": f"{rep.sigma['min']:.3f}–{rep.sigma['max']:.3f}", "constructible": rep.constructible,
             "converged": bool(d.approx.relax.converged), "refined": refined_pct}
-
-
-def commit() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE, capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def _pair(a, b, fmt="{}"):

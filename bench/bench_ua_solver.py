@@ -60,7 +60,8 @@ class SuperLUBaseline:
         return self._lu.solve(np.asarray(b, dtype=float))
 
 
-def _target(name):
+def target_and_mattress(name):
+    """A preset or a zoo entry by name, and its mattress."""
     if name in PRESETS:
         return preset(name)
     entry = next(e for e in zoo() if e.name == name)
@@ -78,7 +79,7 @@ def _designed(name, solver: str):
 
     ua._Pattern.cholesky = cholesky
     try:
-        target, mattress = _target(name)
+        target, mattress = target_and_mattress(name)
         t0 = time.perf_counter()
         d = design(target, mattress, progress=False)
         seconds = time.perf_counter() - t0
