@@ -19,17 +19,19 @@ The Hessian H, per block of a vertex's three coordinates:
   k + 1 on (the shift μ keeps it definite): the same tolerance in 1.4–3.2× less
   time on the designs that fold or contract, but another of U_A's minima,
   other folds, and the dome preset's refined inflation from 2.58 to 2.46–5.08 %
-  of the diagonal as k varies (``bench/bench_ua_hessian.py --refine``; docs/decisions.md), so
-  projected Newton stays the default;
+  of the diagonal as k varies (``bench/bench_ua_hessian.py --refine``;
+  docs/decisions.md), so projected Newton stays the default;
 - A2, per vertex: k_A2 n nᵀ, n the normal of S at the closest point (the exact
   Hessian of ½ dist² on S, dropping terms of order dist · κ);
 - A3: k_A3 LᵀL, constant.
 
 Each iteration solves (H + μ I) p = −∇U_A (H + μ I positive definite: by
-construction while H is projected, by the shift μ after) by the sparse Cholesky the inflation uses (CHOLMOD, ordered and analysed once on the fixed
-pattern: :class:`airmat.inflation.cholesky.ShiftedCholesky`; the zoo's egg-crate target's 298 factorizations take
-2.5 s where scipy's SuperLU took 12.8 s), and backtracks along p until U_A, with the closest points
-projected again at the trial positions, falls by the Armijo fraction. The shift
+construction while H is projected, by the shift μ after) by the sparse Cholesky
+the inflation uses (CHOLMOD, ordered and analysed once on the fixed pattern:
+:class:`airmat.inflation.cholesky.ShiftedCholesky`; the zoo's egg-crate target's
+298 factorizations take 2.5 s where scipy's SuperLU took 12.8 s), and backtracks
+along p until U_A, with the closest points projected again at the trial
+positions, falls by the Armijo fraction. The shift
 μ (a Levenberg–Marquardt damping, ≥ ``MU_MIN`` × k_A1) keeps H + μ I definite
 along the motions no term resists (Ω sliding along a cylinder's axis) and,
 with the exact A1 term, where H is indefinite; it grows ×10 when a
