@@ -23,7 +23,8 @@ BENCHES = ["bench_cylinder.py", "bench_calibration.py", "bench_cholesky.py", "be
            "bench_density.py", "bench_coverage.py", "bench_dash_kappa.py", "bench_deviation_map.py",
            "bench_specimen.py", "bench_inflation.py", "bench_check.py", "bench_refine.py", "bench_monte_carlo.py",
            "bench_startup.py", "bench_assembly.py", "bench_jacobian_solve.py", "bench_zoo.py",
-           "bench_plan.py", "bench_tolerance.py", "bench_registration.py", "bench_newton_rule.py", "bench_correct.py",
+           "bench_plan.py", "bench_tolerance.py", "bench_registration.py", "bench_newton_rule.py", "bench_preconditioned.py",
+           "bench_correct.py",
            "bench_correct_scan.py",
            "bench_end_dashes.py", "bench_ua_solver.py", "bench_ua_hessian.py"]
 

@@ -27,6 +27,7 @@ from airmat.inflation.assembly import build_assembler
 from airmat.inflation.energy import block_pattern
 from airmat.inflation.mesh import MattressMesh, build_mattress_mesh
 from airmat.inflation.model import Parameters, build_model
+from airmat.inflation.preconditioned import MIN_UNKNOWNS, PreconditionedSystem
 from airmat.inflation.prolong import coarse_resolutions, prolong
 from airmat.inflation.solver import NewtonSystem, rigid_pins, solve
 from airmat.inflation.strings import StringSet
@@ -139,17 +140,20 @@ def _with_rest(model, rest: np.ndarray):
 
 def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: np.ndarray, *,
           tol: float, stages: int, stage_tol: float, max_iter: int, hint_rel: float = 0.0,
-          rule: tuple = (None, None)):
+          rule: tuple = (None, None), pcg_min: int = MIN_UNKNOWNS):
     """Solve U_B on ``mesh`` from ``x``, with the string rest lengths ramped from their
     lengths at ``x`` to l* in ``stages`` steps (1: no ramp). ``hint_rel`` seeds the Newton shift
     (see :class:`~airmat.inflation.solver.NewtonSystem`); ``rule`` is the solver's
-    ``(refused_step, mu_up)`` (None: its defaults).
+    ``(refused_step, mu_up)`` (None: its defaults). A system of at least ``pcg_min`` unknowns takes
+    its Newton steps by preconditioned conjugate gradients (:mod:`airmat.inflation.preconditioned`).
 
     Returns (SolveResult, iterations, stages, the NewtonSystem's final ``hint_rel``, the model)."""
     model = build_model(mesh, strings, params)
     fixed = rigid_pins(mesh.uv, mesh.top)
-    asm = build_assembler(block_pattern(model), model.n_vertices, fixed)
-    system = NewtonSystem(groups=asm.free // 3, hint_rel=hint_rel)       # shared by the stages
+    pattern = block_pattern(model)
+    asm = build_assembler(pattern, model.n_vertices, fixed)
+    system = (PreconditionedSystem(pattern, model.smoothing, asm, hint_rel=hint_rel) if asm.n_free >= pcg_min
+              else NewtonSystem(groups=asm.free // 3, hint_rel=hint_rel))       # shared by the stages
     kw = dict(fixed_dofs=fixed, max_iter=max_iter, max_move=0.5 * float(np.mean(mesh.spacing)),
               assembler=asm, linear_system=system, refused_step=rule[0], mu_up=rule[1])
     ramp = strings is not None and len(strings) > 0
@@ -180,7 +184,8 @@ def _ramp(mesh: MattressMesh, strings: StringSet | None, params: Parameters, x: 
 def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters = Parameters(),
             tol: float = INFLATE_TOL, stages: int = 4, stage_tol: float = 3e-2, level_tol: float = 1e-3,
             coarsest: float = 0.08, dent: float = 0.0, max_iter: int = 200,
-            strict: bool = False, keep_levels: bool = False, rule: tuple = (None, None)) -> Inflation:
+            strict: bool = False, keep_levels: bool = False, rule: tuple = (None, None),
+            pcg_min: int = MIN_UNKNOWNS) -> Inflation:
     """Inflate ``mesh`` with ``strings`` (rest lengths l*) and return the equilibrium.
 
     The string ramp is solved on the coarsest mesh of the continuation
@@ -218,6 +223,10 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
     rule : tuple
         ``(refused_step, mu_up)`` of :func:`~airmat.inflation.solver.solve` (None: the solver's
         defaults, :data:`~airmat.inflation.solver.REFUSED_STEP` and :data:`~airmat.inflation.solver.MU_UP`).
+    pcg_min : int
+        Meshes with at least this many unknowns take their Newton steps by conjugate gradients
+        preconditioned by a sparser factor (:mod:`airmat.inflation.preconditioned`: the same equilibrium to
+        the tolerance, sooner on the large mattress at 20 mm); the others by a Cholesky factorization.
 
     Returns
     -------
@@ -237,7 +246,7 @@ def inflate(mesh: MattressMesh, strings: StringSet | None, *, params: Parameters
         first = k == len(meshes) - 1
         result, it, st, hint, model = _ramp(m, strings, params, x, tol=tol if k == 0 else level_tol,
                                             stages=stages if first else 1, stage_tol=stage_tol,
-                                            max_iter=max_iter, hint_rel=hint, rule=rule)
+                                            max_iter=max_iter, hint_rel=hint, rule=rule, pcg_min=pcg_min)
         x, n_iter, n_stages = result.xyz, n_iter + it, n_stages + st
         if keep_levels and k > 0:
             kept.insert(0, (m, x))
@@ -260,7 +269,8 @@ def _inflation(mesh, result, model, strings, n_iter: int, n_stages: int, t0: flo
 
 
 def inflate_from(start: Inflation, strings: StringSet | None, *, params: Parameters = Parameters(),
-                 tol: float = INFLATE_TOL, max_iter: int = 200, strict: bool = False) -> Inflation:
+                 tol: float = INFLATE_TOL, max_iter: int = 200, strict: bool = False,
+                 pcg_min: int = MIN_UNKNOWNS) -> Inflation:
     """Carry an inflated equilibrium on to other strings, on its own mesh: Newton from ``start``, no ramp.
 
     How a refined design is inflated (:func:`airmat.check.inflation_check.check`): its
@@ -283,6 +293,8 @@ def inflate_from(start: Inflation, strings: StringSet | None, *, params: Paramet
         Newton iterations.
     strict : bool
         Raise :class:`ConvergenceError` when the solve does not converge.
+    pcg_min : int
+        As :func:`inflate`'s.
 
     Returns
     -------
@@ -292,7 +304,7 @@ def inflate_from(start: Inflation, strings: StringSet | None, *, params: Paramet
     t0 = time.perf_counter()
     mesh = start.mesh
     result, n_iter, n_stages, _, model = _ramp(mesh, strings, params, start.xyz, tol=tol, stages=1,
-                                               stage_tol=tol, max_iter=max_iter)
+                                               stage_tol=tol, max_iter=max_iter, pcg_min=pcg_min)
     return _inflation(mesh, result, model, strings, n_iter, n_stages, t0, strict)
 
 

@@ -34,6 +34,7 @@ HEADERS = {
     "bench_plan.py": ["| seed | planned l/L |", "planned: measured", "| seeds | planned smaller |"],
     "bench_registration.py": ["RMS error of recovered positions (mm)", "inlier share", "success"],
     "bench_newton_rule.py": ["today (shift ×4): s", "backtrack ×2: s", "max vertex distance (mm)"],
+    "bench_preconditioned.py": ["without U_B5's far couplings", "PCG: CG iterations", "max vertex distance (mm)"],
     "bench_correct_scan.py": ["`airmat correct` (s)", "one inflation (s)", "95 % intervals (mm)"],
     "bench_correct.py": ["| shape | mattress (mm) | true Δ / d (mm) |", "RMS from Ŝ before → after (mm)", "ratio"],
     "bench_refine.py": ["open loop RMS mm (% diag)", "refined RMS mm (% diag)", "ratio"],
