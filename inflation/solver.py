@@ -148,19 +148,26 @@ class NewtonSystem:
 
     def step(self, h: sp.csr_matrix, g: np.ndarray, mu: float):
         """Returns (dx, mu) with the shift actually used."""
-        if self.chol is None:
-            self.chol = ShiftedCholesky(h, self.groups)
+        if self.scale is None:
             self.scale = float(np.mean(np.abs(h.diagonal())))
         mu0 = mu
         for _ in range(20):
-            if self.chol.factor(h, mu):
+            dx = self.attempt(h, g, mu)
+            if dx is not None:
                 if mu > mu0:
                     self.hint_rel = mu / self.scale
-                dx = self.chol.solve(-g)
-                if np.all(np.isfinite(dx)):
-                    return dx, mu
+                return dx, mu
             mu = max(10.0 * mu, self.mu_min, 0.1 * self.hint_rel * self.scale)
         raise ConvergenceError("the Newton matrix stays indefinite even with a large shift", mu=mu)
+
+    def attempt(self, h: sp.csr_matrix, g: np.ndarray, mu: float) -> np.ndarray | None:
+        """dx with ``(h + mu I) dx = -g``, or None when ``h + mu I`` is not positive definite."""
+        if self.chol is None:
+            self.chol = ShiftedCholesky(h, self.groups)
+        if not self.chol.factor(h, mu):
+            return None
+        dx = self.chol.solve(-g)
+        return dx if np.all(np.isfinite(dx)) else None
 
 
 def _full(dx_free: np.ndarray, free: np.ndarray, shape) -> np.ndarray:

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from airmat.inflation.assembly import build_assembler
 from airmat.inflation.cholesky import ShiftedCholesky
