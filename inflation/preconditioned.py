@@ -28,7 +28,8 @@ conjugate-gradient iteration (a forward and back substitution and a product with
 on the large mattress's 20 mm mesh (:data:`MIN_UNKNOWNS`), not on its 40 mm one nor on the
 small mattress, and in an inflation from the flat mattress (:func:`~airmat.inflation.simulate.inflate`),
 not in an equilibrium carried on to other lengths (:func:`~airmat.inflation.simulate.inflate_from`),
-whose steps take twice the conjugate-gradient iterations (``bench/bench_preconditioned.py``, docs/benchmarks.md: vault2 19.7 → 15.7 s, the roof
+whose steps take about twice the conjugate-gradient iterations: 0.82–1.44× on four large refined designs,
+two of them slower (``bench/bench_preconditioned.py``, docs/benchmarks.md: vault2 19.7 → 15.7 s, the roof
 15.9 → 14.3 s, the same vertices within 1e-5 mm). SI units.
 """
 

@@ -298,9 +298,9 @@ def inflate_from(start: Inflation, strings: StringSet | None, *, params: Paramet
         Raise :class:`ConvergenceError` when the solve does not converge.
     pcg_min : int or None
         As :func:`inflate`'s; by default (None) every step by a factorization: carried on from an
-        equilibrium, the conjugate gradients take twice the iterations per step they take from the
-        flat mattress, and the steps are more (hypar-0.5-large's refined lengths on the large
-        mattress: 28 steps and 522 conjugate-gradient iterations in 26.1 s, against 21 steps in 22.0 s).
+        equilibrium, the conjugate gradients take about twice the iterations per step they take from
+        the flat mattress, and the steps are more; on four large refined designs that was 0.82–1.44×
+        the factorizations' speed, two of them slower (``bench/bench_preconditioned.py --carry-on``).
 
     Returns
     -------
