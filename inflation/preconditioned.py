@@ -90,6 +90,9 @@ def far_couplings(pattern: list, smoothing: sp.spmatrix, free: np.ndarray, indic
 def pcg(matvec, b: np.ndarray, precondition, rtol: float, max_iter: int) -> tuple:
     """Preconditioned conjugate gradients for ``A x = b`` from ``x = 0``.
 
+    Not :func:`scipy.sparse.linalg.cg`: the Newton step needs to know when ``A`` is not definite
+    (a search direction of non-positive curvature), which scipy's does not report.
+
     Parameters
     ----------
     matvec, precondition : callable
