@@ -6,6 +6,7 @@ Usage::
     .venv/bin/python bench/bench_tolerance.py --presets vault1 --resolution-mm 40 --samples 64   # a shared machine
     .venv/bin/python bench/bench_tolerance.py --quick                # a smoke run: vault1 at 60 mm, K = 4
     .venv/bin/python bench/bench_tolerance.py --presets vault2 --samples 0 --tolerance-mm 44.2   # linear side only
+    .venv/bin/python bench/bench_tolerance.py --presets vault1 saddle --samples 2 --seeds 1 --jobs 1 2   # its time
 
 Per preset (designed with the paper's calibration values, seed 0, and a stated nominal scatter
 ``--sigma-per-m``, as ``bench_monte_carlo.py``): one check with K Monte-Carlo samples
@@ -13,9 +14,12 @@ Per preset (designed with the paper's calibration values, seed 0, and a stated n
 equilibrium too), then :func:`airmat.check.tolerance.tolerance` on that check (``--validate`` full
 samples in antithetic pairs, seed 1, which also give the model's mean shift). Columns:
 
+- ``jobs``: worker processes of the check's runs and forked processes of the validation's samples
+  (``--jobs 1 2``: a row each, in turn; with 2 the samples run beside the model's Jacobian);
 - times: the K runs (summed inside the runs), the median run (one inflation), the linear model
-  (Jacobian, covariance, model draws) and its validation runs (wall), and linear + validation over
-  one inflation;
+  (Jacobian, covariance, model draws), its validation (wall, from the start of its median run on the
+  coarser mesh to its statistics), and the whole :func:`~airmat.check.tolerance.tolerance` call's wall
+  time over one inflation;
 - the validation's spread error (the verdict's measure), the scale s of the model's change (its
   variance ratio shrunk toward 1, ``Validation.spread_scale``) and its per-sample displacement error
   (``LinearTolerance.validation``);
@@ -151,7 +155,9 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
         mc = run.monte_carlo
         T = round(float(np.median(mc.rms)) / MM, 1) * MM
     t_med = run.runs["median"].inflation.seconds
+    started = time.perf_counter()
     lin = tolerance(design, run=run, validate=validate, seed=1, tolerance=T, workers=workers)
+    wall = time.perf_counter() - started
     lst = lin.stats()
     if mc is None:
         nan = float("nan")
@@ -167,13 +173,13 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
                                                  workers=workers).stats()["p_within"] for s in range(2, seeds + 1)]
     v = lin.validation
     if v is None:
-        val, p_se, total = "n/a", "", lin.seconds
+        val, p_se = "n/a", ""
     else:
         val = (f"{100 * v.spread_error:+.1f} %, s {v.spread_scale:.3f} / {100 * v.relative_error:.0f} % "
                f"({v.samples}, {v.seconds:.1f} s)")
         p_se = "" if v.p_within_se is None else f" ± {v.p_within_se:.2f}"
-        total = lin.seconds + v.seconds
-    return (f"| {preset} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc_seconds:.1f} ({t_check:.1f} wall) "
+    total = wall                        # the model and its validation's samples overlap with workers > 1
+    return (f"| {preset} | {workers} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc_seconds:.1f} ({t_check:.1f} wall) "
             f"| {t_med:.1f} | {lin.seconds:.2f} | {val} | {total / t_med:.1f}x "
             f"| {100 * rel:.1f} % (sampling {100 * rel_se:.0f} %) "
             f"| {lst['rms_median'] / MM:.2f} / {mst['rms_median'] / MM:.2f} | {lst['rms_p95'] / MM:.2f} / "
@@ -194,7 +200,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=8,
                     help="validation seeds 1..N whose P(RMS <= T) the last column summarizes (the shift is sampled)")
     ap.add_argument("--sigma-per-m", type=float, default=0.3, help="nominal scatter sigma (1/m), stated")
-    ap.add_argument("--jobs", type=int, default=1, help="worker processes of the inflations")
+    ap.add_argument("--jobs", type=int, nargs="+", default=[1],
+                    help="worker processes of the inflations and forked processes of the validation's samples; "
+                         "several: one row each, in turn")
     ap.add_argument("--mc-cache", type=Path, default=HERE.parent / "out" / "mc_cache",
                     help="folder of the Monte-Carlos' per-sample results, read when the key matches")
     ap.add_argument("--quick", action="store_true", help="a smoke run: vault1 at 60 mm, K = 4, 2 validation samples")
@@ -206,16 +214,18 @@ def main(argv=None) -> int:
     logging.getLogger().setLevel(logging.WARNING)
     print(f"linear tolerance against {args.samples} Monte-Carlo samples at {args.resolution_mm:g} mm, "
           f"sigma {args.sigma_per_m:g} 1/m (nominal), {args.validate} validation samples")
-    print("| preset | mesh (mm) | strings | K | MC runs (s) | one inflation (s) | linear (s) "
-          "| validation: spread error, scale s / per-sample error (samples, s) | linear + validation / one inflation "
+    print("| preset | jobs | mesh (mm) | strings | K | MC runs (s) | one inflation (s) | linear (s) "
+          "| validation: spread error, scale s / per-sample error (samples, s) "
+          "| linear tolerance, wall / one inflation "
           "| 95 % band: median rel. diff | RMS median lin / MC (mm) | RMS p95 lin / MC (mm) "
           f"| T (mm): P(RMS <= T) lin / MC | P lin over validation seeds 1-{args.seeds}: mean ± sd | reliable "
           "| MC made at |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.presets:
-        print(row(name, args.resolution_mm * MM, args.samples, args.validate, args.sigma_per_m, args.jobs, args.seeds,
-                  args.mc_cache, args.tolerance_mm),
-              flush=True)
+        for jobs in args.jobs:
+            print(row(name, args.resolution_mm * MM, args.samples, args.validate, args.sigma_per_m, jobs, args.seeds,
+                      args.mc_cache, args.tolerance_mm),
+                  flush=True)
     return 0
 
 

@@ -35,8 +35,8 @@ import numpy as np
 
 from airmat.check.face_linearization import linearize
 from airmat.check.length_covariance import LengthCovariance, length_covariance
-from airmat.check.tolerance_validation import (VALIDATION_SAMPLES, Validation, sample_validation,
-                                               validation_resolution)
+from airmat.check.tolerance_validation import (VALIDATION_SAMPLES, Validation, finish_validation,
+                                               sample_validation, start_validation, validation_resolution)
 from airmat.errors import InputError
 from airmat.inflation.model import Parameters
 from airmat.summary import Summarized, mm
@@ -259,28 +259,36 @@ def _model_draws(base, a, cov, n: int, seed: int, chunk: int = 500) -> tuple:
     return np.quantile(dist, [0.5, 0.95], axis=0), np.sqrt(np.mean(dist ** 2, axis=1))
 
 
-def _validation(design, run, strings, lin, n: int, seed: int, cov, params, variance: float, base, *, workers: int,
-                scheduler, spread_correction: bool = True) -> Validation:
-    """The validation's samples on :func:`validation_resolution`'s mesh: there, a median run at the same
-    lengths, its own Jacobian and variance; the RMS statistics about ``base``, the check's e₀ (m)."""
+def _start_coarse(design, run, strings, n: int, seed: int, cov, params, *, workers: int, scheduler,
+                  forks: int):
+    """The validation's samples on the mesh of :func:`validation_resolution` when it is coarser than
+    ``run``'s: there a median run at the same lengths and its own Jacobian and variance, then the samples
+    started on up to ``forks`` forked processes. Returns (pending samples, their model's variance (m²),
+    setup seconds), or None when the samples run on ``run``'s own mesh."""
     from airmat.check.inflation_check import check
 
     res = validation_resolution(design, run.resolution)
     if abs(res - run.resolution) < 1e-12:
-        return sample_validation(design, run, strings, lin, n, seed, cov, params, variance,
-                                 spread_correction=spread_correction)
+        return None
     started = time.perf_counter()
     coarse = check(design, resolution=res, params=params, envelope=False, surface=run.surface, lengths=run.lengths,
                    workers=workers, scheduler=scheduler)
     clin = linearize(design, coarse.runs["median"], strings, run.surface, params)
     flat = clin.face.reshape(-1, clin.face.shape[2])
     cvar = float(np.einsum("ri,ri->", flat, flat @ cov.total))
+    pending = start_validation(design, coarse, strings, clin, n, seed, cov, params, forks)
     setup = time.perf_counter() - started
-    val = sample_validation(design, coarse, strings, clin, n, seed, cov, params, cvar, base=base,
-                            spread_correction=spread_correction)
-    log.debug("validation on the %.0f mm mesh: its median run and Jacobian %.2f s, %d samples %.2f s", res * 1e3,
-              setup, n, val.seconds)
-    return replace(val, seconds=val.seconds + setup)
+    log.debug("validation on the %.0f mm mesh: its median run and Jacobian %.2f s, %d samples on %d forked "
+              "processes", res * 1e3, setup, n, pending.runs.forked)
+    return pending, cvar, setup
+
+
+def _fork_workers(workers: int) -> int:
+    """Forked processes for the validation's samples: ``workers``, at most the cores this process may use
+    (not the idle ones: right after a closest-point query open3d's threads still count as running)."""
+    from airmat.cores import usable_cores
+
+    return max(1, min(int(workers), usable_cores()))
 
 
 def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters = Parameters(),
@@ -305,10 +313,11 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
         T (m) of P(RMS <= T).
     validate : int
         Full samples that check the prediction and give its mean shift, an even number (antithetic
-        pairs, solved in this process whatever ``workers``, on the mesh of
-        :func:`~airmat.check.tolerance_validation.validation_resolution`: twice ``run``'s resolution
-        where that resolves the strings, up to 40 mm); 0: none, the result is then the first-order
-        model about e₀, not validated.
+        pairs, on the mesh of :func:`~airmat.check.tolerance_validation.validation_resolution`: twice
+        ``run``'s resolution where that resolves the strings, up to 40 mm); 0: none, the result is then
+        the first-order model about e₀, not validated. With ``workers`` > 1 they run on as many forked
+        processes, at most the usable cores (:class:`airmat.forked.ForkedMap`, Linux; the same results), beside
+        the model's own Jacobian; else in this process.
     seed : int
         Seed of the model's draws and of the validation samples.
     draws : int
@@ -341,7 +350,13 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     strings = design_strings(design, "median", lengths=run.lengths)
     cov = length_covariance(design, lengths=run.lengths, cut_tolerance=cut_tolerance,
                             cut_distribution=cut_distribution)
+    prepared = time.perf_counter() - started
     med = run.runs["median"]
+    spread = bool(np.any(cov.total))
+    forks = _fork_workers(workers) if validate and spread else 1
+    coarse = (_start_coarse(design, run, strings, int(validate), seed, cov, params, workers=workers,
+                            scheduler=scheduler, forks=forks) if validate and spread else None)
+    started = time.perf_counter()       # the model's own time (its validation's samples may run beside it)
     lin = linearize(design, med, strings, run.surface, params)
     a = lin.face
     base = med.deviation.aligned - design.approx.xyz
@@ -354,11 +369,16 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     flat = a.reshape(-1, a.shape[2])
     contrib = np.einsum("ri,ri->i", flat, flat @ total)
     share = contrib / contrib.sum() if contrib.sum() > 0 else np.zeros_like(contrib)
-    seconds = time.perf_counter() - started
-    spread = bool(np.any(total))
-    val = (_validation(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()), base,
-                       workers=workers, scheduler=scheduler, spread_correction=spread_correction)
-           if validate and spread else None)
+    seconds = prepared + time.perf_counter() - started
+    val = None
+    if validate and spread:
+        if coarse is not None:          # its samples ran beside the model above
+            pending, cvar, setup = coarse
+            val = finish_validation(pending, cvar, base=base, spread_correction=spread_correction)
+            val = replace(val, seconds=val.seconds + setup)
+        else:
+            val = sample_validation(design, run, strings, lin, int(validate), seed, cov, params, float(contrib.sum()),
+                                    spread_correction=spread_correction, workers=forks)
     started = time.perf_counter()
     shift = val.shift if val is not None else np.zeros_like(base)
     scale = val.spread_scale if val is not None else 1.0

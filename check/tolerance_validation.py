@@ -74,16 +74,19 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from airmat.check.face_linearization import Linearization, align_faces
 from airmat.check.length_covariance import LengthCovariance
 from airmat.check.pair_statistics import antithetic, pair_statistics, rms_shift_se, spread_scale, variance_ratio
 from airmat.check.monte_carlo import draw
 from airmat.errors import AirmatError
+from airmat.forked import ForkedMap
+from airmat.inflation.cholesky import ShiftedCholesky
 from airmat.inflation.model import with_strings
 from airmat.inflation.solver import NewtonSystem, solve
 
-__all__ = ["Validation", "sample_validation", "antithetic", "pair_statistics", "variance_ratio", "spread_scale",
+__all__ = ["Validation", "sample_validation", "start_validation", "finish_validation", "PendingValidation", "antithetic", "pair_statistics", "variance_ratio", "spread_scale",
            "rms_shift_se", "validation_resolution",
            "VALIDATION_SAMPLES", "VALIDATION_COARSEST", "RELIABLE_ERROR", "RELIABLE_P", "VALIDATION_TOL"]
 
@@ -183,12 +186,12 @@ class Validation:
         ``p_within_se · sqrt((p − 1) / χ²₀.₀₅(p − 1))``, 15.9 times the estimate with 2 pairs, 2.9 with 4,
         so that a lucky small scatter of few pairs does not vouch for P.
         """
-        from scipy.stats import chi2
+        from scipy.special import gammaincinv
 
         dof = self.samples // 2 - 1
         if self.p_within_se is None or dof < 1 or not np.isfinite(self.p_within_se):
             return float("nan")
-        return float(self.p_within_se * np.sqrt(dof / chi2.ppf(0.05, dof)))
+        return float(self.p_within_se * np.sqrt(dof / (2.0 * gammaincinv(0.5 * dof, 0.05))))   # χ² quantile
 
     @property
     def why(self) -> str:
@@ -205,12 +208,16 @@ class Validation:
         return ""
 
 
-def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarray, params) -> tuple:
-    """Equilibria at l* ± δ_j from the median ``x0`` (Newton, no ramp): positions (2 p, n, 3), converged (2 p,).
+def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarray, params,
+              workers: int = 1) -> ForkedMap:
+    """Equilibria at l* ± δ_j from the median ``x0`` (Newton, no ramp), started on up to ``workers`` forked
+    processes (:class:`airmat.forked.ForkedMap`); its results: (positions (n, 3), converged) per sample, in
+    the order +δ_1, −δ_1, +δ_2, ...
 
     The mesh's model, sparse pattern and symbolic factorization are shared; each run starts from its
     linear prediction x₀ ± J δ (from x₀ when that start stretches an edge past the solver's sanity
-    bound) with the Newton shift's hint reset, and stops at :data:`VALIDATION_TOL`.
+    bound) with the Newton system's shift, its floor and scale reset, so that a sample depends on its
+    own δ only (the same bits in any process, in any order), and stops at :data:`VALIDATION_TOL`.
     """
     n = len(x0)
     system = NewtonSystem(groups=lin.assembler.free // 3)
@@ -218,10 +225,13 @@ def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarr
     kw = dict(fixed_dofs=lin.fixed, tol=VALIDATION_TOL, max_iter=200, max_move=0.5 * float(np.mean(mesh.spacing)),
               assembler=lin.assembler, linear_system=system, desc="tolerance check", warn=False)
 
-    def equilibrium(rest, step):
-        model = with_strings(lin.model, mesh, replace(strings, rest=rest), params)
+    def equilibrium(task):
+        j, sign = task
+        d = sign * delta[j]
+        model = with_strings(lin.model, mesh, replace(strings, rest=strings.rest + d), params)
+        step = (lin.dx @ d).reshape(n, 3)
         for start in (x0 + step, x0):      # a prediction that tears an edge (a wrinkle's rotation): from x₀
-            system.hint_rel = hint
+            system.hint_rel, system.mu_min, system.scale = hint, None, None
             try:
                 r = solve(model, start, **kw)
             except AirmatError:
@@ -229,12 +239,11 @@ def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarr
             return r.xyz, bool(r.converged)
         return np.full_like(x0, np.nan), False
 
-    out, ok = np.empty((2 * len(delta), n, 3)), np.zeros(2 * len(delta), bool)
-    for j, d in enumerate(delta):
-        step = (lin.dx @ d).reshape(n, 3)
-        out[2 * j], ok[2 * j] = equilibrium(strings.rest + d, step)
-        out[2 * j + 1], ok[2 * j + 1] = equilibrium(strings.rest - d, -step)
-    return out, ok
+    if len(delta):          # the ordering and symbolic analysis once, before any fork
+        asm = lin.assembler
+        system.chol = ShiftedCholesky(sp.csr_matrix((np.ones(len(asm.indices)), asm.indices, asm.indptr),
+                                                    shape=(asm.n_free, asm.n_free)), system.groups)
+    return ForkedMap(equilibrium, [(j, sign) for j in range(len(delta)) for sign in (1.0, -1.0)], workers)
 
 
 def validation_resolution(design, resolution: float) -> float:
@@ -259,15 +268,26 @@ def validation_resolution(design, resolution: float) -> float:
     return coarse
 
 
-def sample_validation(design, check_run, strings, lin: Linearization, n: int, seed: int, cov: LengthCovariance,
-                      params, variance: float, base: np.ndarray | None = None,
-                      spread_correction: bool = True) -> Validation:
-    """``n`` full samples in antithetic pairs, carried on from ``check_run``'s median equilibrium, against
-    the model ``lin`` of that run (``variance``: the model's total, Σ_v tr(A_v Σ A_vᵀ), m²).
+@dataclass
+class PendingValidation:
+    """Full samples started by :func:`start_validation` (on forked processes, or to run at
+    :func:`finish_validation`), with what their statistics need."""
 
-    ``base`` (N, 3): the deviation e₀ the RMS statistics add the changes to (m); default that run's
-    own (another mesh's, when the samples run on a coarser one). ``spread_correction``: the model's
-    change scaled by :func:`spread_scale` of the samples' variance ratio (False: not scaled, 1)."""
+    design: object
+    check_run: object
+    lin: Linearization
+    delta: np.ndarray
+    seed: int
+    runs: ForkedMap
+    started: float
+
+
+def start_validation(design, check_run, strings, lin: Linearization, n: int, seed: int, cov: LengthCovariance,
+                     params, workers: int = 1) -> PendingValidation:
+    """Draw the ``n`` full samples' length changes (antithetic pairs) and start their equilibria, carried on
+    from ``check_run``'s median one, on up to ``workers`` forked processes (:class:`airmat.forked.ForkedMap`;
+    1, or where the platform cannot fork: at :func:`finish_validation`, here). The samples are the same bits
+    either way."""
     lengths, med = check_run.lengths, check_run.runs["median"]
     pairs = n // 2
     dr = draw(design, pairs, seed, lengths=lengths)
@@ -277,10 +297,37 @@ def sample_validation(design, check_run, strings, lin: Linearization, n: int, se
            else rng.normal(0.0, t, dr.length.shape)) if t > 0 else 0.0
     delta = lengths.to_simulated(np.maximum(dr.length + cut, 0.0)) - strings.rest          # (p, k)
     started = time.perf_counter()
-    x, converged = _carry_on(lin, med.inflation.xyz, med.inflation.mesh, strings, delta, params)
+    runs = _carry_on(lin, med.inflation.xyz, med.inflation.mesh, strings, delta, params, workers)
+    return PendingValidation(design=design, check_run=check_run, lin=lin, delta=delta, seed=int(seed), runs=runs,
+                             started=started)
+
+
+def sample_validation(design, check_run, strings, lin: Linearization, n: int, seed: int, cov: LengthCovariance,
+                      params, variance: float, base: np.ndarray | None = None,
+                      spread_correction: bool = True, workers: int = 1) -> Validation:
+    """``n`` full samples in antithetic pairs, carried on from ``check_run``'s median equilibrium, against
+    the model ``lin`` of that run (``variance``: the model's total, Σ_v tr(A_v Σ A_vᵀ), m²), on up to
+    ``workers`` forked processes: :func:`start_validation` then :func:`finish_validation`.
+
+    ``base`` (N, 3): the deviation e₀ the RMS statistics add the changes to (m); default that run's
+    own (another mesh's, when the samples run on a coarser one). ``spread_correction``: the model's
+    change scaled by :func:`spread_scale` of the samples' variance ratio (False: not scaled, 1)."""
+    pending = start_validation(design, check_run, strings, lin, n, seed, cov, params, workers)
+    return finish_validation(pending, variance, base, spread_correction)
+
+
+def finish_validation(pending: PendingValidation, variance: float, base: np.ndarray | None = None,
+                      spread_correction: bool = True) -> Validation:
+    """The statistics of :func:`start_validation`'s samples (waits for them); the arguments as
+    :func:`sample_validation`'s. ``seconds``: from their start to their statistics."""
+    design, check_run, lin, delta, seed = pending.design, pending.check_run, pending.lin, pending.delta, pending.seed
+    med, pairs = check_run.runs["median"], len(delta)
+    done = pending.runs.results()
+    x = np.array([xyz for xyz, _ in done]).reshape(2 * pairs, *med.inflation.xyz.shape)
+    converged = np.array([ok for _, ok in done], bool)
     approx = design.approx
     faces = (lin.operator @ x.transpose(1, 0, 2).reshape(x.shape[1], -1)).reshape(-1, len(x), 3).transpose(1, 0, 2)
-    seconds = time.perf_counter() - started
+    seconds = time.perf_counter() - pending.started
     e0 = med.deviation.aligned - approx.xyz if base is None else np.asarray(base, float)
     both = converged.reshape(-1, 2).all(axis=1).repeat(2)
     actual = align_faces(faces[both], approx.xyz) - med.deviation.aligned

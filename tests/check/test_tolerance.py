@@ -19,7 +19,9 @@ from airmat.check.face_linearization import align_faces  # noqa: E402
 from airmat.check.tolerance import density_at, tolerance  # noqa: E402
 from airmat.check.pair_statistics import (antithetic, pair_statistics, rms_shift_se, spread_scale,  # noqa: E402
                                           variance_ratio)
+import airmat.check.tolerance_validation as tv  # noqa: E402
 from airmat.check.tolerance_validation import RELIABLE_ERROR, Validation  # noqa: E402
+from airmat.forked import can_fork  # noqa: E402
 from airmat.errors import InputError  # noqa: E402
 from airmat.inflation.simulate import inflate_from  # noqa: E402
 
@@ -210,6 +212,27 @@ def test_the_spread_correction_brings_the_model_to_full_samples_where_strings_sl
     assert abs(p_fixed - 0.5) < abs(p_raw - 0.5), (p_raw, p_fixed)
     assert np.allclose(fixed.normal_sd, v.spread_scale * raw.normal_sd)
     assert fixed.block()["validation"]["spread_scale"] == round(v.spread_scale, 4)
+
+
+@pytest.mark.skipif(not can_fork(), reason="the validation's samples fork on Linux only")
+def test_the_validation_samples_on_forked_processes_are_the_same_bits(case, monkeypatch):
+    """With workers, the validation's samples run on forked processes (airmat.forked.ForkedMap), each sample
+    from its own δ with the Newton system reset: the same samples, shift, scale and model draws as in one process."""
+    design, run = case
+    forked = []
+    original = tv.ForkedMap.__init__
+
+    def counting(self, fn, items, workers):
+        original(self, fn, items, workers)
+        forked.append(self.forked)
+    monkeypatch.setattr(tv.ForkedMap, "__init__", counting)
+    one = tolerance(design, run=run, validate=6, seed=3, tolerance=0.002)
+    two = tolerance(design, run=run, validate=6, seed=3, tolerance=0.002, workers=2)
+    assert forked == [0, 2]
+    a, b = one.validation, two.validation
+    assert np.array_equal(a.converged, b.converged) and a.converged.all()
+    assert np.array_equal(a.shift, b.shift) and np.array_equal(a.rms_actual, b.rms_actual)
+    assert a.spread_scale == b.spread_scale and np.array_equal(one.rms, two.rms)
 
 
 def test_p_is_vouched_for_by_the_upper_bound_of_its_standard_error():

@@ -1,0 +1,167 @@
+"""Independent tasks on forked copies of this process, started now, their results collected later.
+
+Some independent work is too short to pay for a worker pool (the linear tolerance's
+validation samples: 16 equilibria of a few hundred milliseconds on the model this process
+already holds), yet long enough that a second core halves it. A forked child starts in a
+millisecond with everything this process has built (the model, the factorization's
+ordering, the loaded libraries), so :class:`ForkedMap` forks up to ``workers`` children,
+each of which runs ``fn`` on a contiguous block of the items and sends the results back
+through a pipe, while this process goes on with other work; :meth:`ForkedMap.results`
+then collects them in the order of the items.
+
+The results are those of ``[fn(item) for item in items]`` in this process: the same
+function on the same memory, no random step shared between items (each task must depend
+on its own item only). Forking is used on Linux only (macOS forbids it after its system
+frameworks have started threads; Windows has no fork); elsewhere, with one worker or one
+item, :meth:`ForkedMap.results` runs the tasks here, one after the other.
+
+A child runs without progress bars or log records and dies with the default action on
+Ctrl-C; a task that raises re-raises its exception here; a child that dies without an
+answer (killed, out of memory) has its block run here instead, with a warning.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import pickle
+import signal
+import sys
+
+__all__ = ["ForkedMap", "can_fork"]
+
+log = logging.getLogger(__name__)
+
+
+def can_fork() -> bool:
+    """Whether :class:`ForkedMap` forks here (Linux with ``os.fork``)."""
+    return sys.platform.startswith("linux") and hasattr(os, "fork")
+
+
+def _blocks(n: int, parts: int) -> list[range]:
+    """``range(n)`` cut into ``parts`` contiguous blocks, the first ones one longer where it does not divide.
+
+    >>> [list(b) for b in _blocks(5, 2)]
+    [[0, 1, 2], [3, 4]]
+    """
+    q, r = divmod(n, parts)
+    starts = [k * q + min(k, r) for k in range(parts + 1)]
+    return [range(starts[k], starts[k + 1]) for k in range(parts)]
+
+
+def _child(fn, items, block, fd) -> None:
+    """The forked child: run ``fn`` on ``items[block]``, write ``("ok", results)`` or ``("error", exc)`` to ``fd``,
+    exit without running this process's exit handlers."""
+    code = 1
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        from airmat.progress import set_progress
+
+        set_progress(False)
+        logging.disable(logging.CRITICAL)
+        payload = pickle.dumps(("ok", [fn(items[i]) for i in block]), protocol=pickle.HIGHEST_PROTOCOL)
+        code = 0
+    except BaseException as exc:       # noqa: BLE001 - every failure goes back to the parent
+        try:
+            payload = pickle.dumps(("error", exc), protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception:              # noqa: BLE001 - an exception that does not pickle
+            payload = pickle.dumps(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(payload)
+    finally:
+        os._exit(code)
+
+
+class ForkedMap:
+    """``[fn(item) for item in items]``, started on up to ``workers`` forked children now.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(item)``: its result must pickle. Closures are fine (the children are forks).
+    items : sequence
+    workers : int
+        Children at most (no more than the items); below 2, or where :func:`can_fork` is
+        False, nothing is forked and :meth:`results` runs the tasks in this process.
+
+    Attributes
+    ----------
+    forked : int
+        Children started.
+
+    Examples
+    --------
+    >>> m = ForkedMap(lambda x: x * x, [1, 2, 3], workers=2)
+    >>> m.results()
+    [1, 4, 9]
+    """
+
+    def __init__(self, fn, items, workers: int):
+        self._fn, self._items = fn, list(items)
+        self._children = []                   # (pid, read end, block)
+        parts = min(int(workers), len(self._items))
+        if parts < 2 or not can_fork():
+            self.forked = 0
+            return
+        for block in _blocks(len(self._items), parts):
+            read, write = os.pipe()
+            pid = os.fork()
+            if pid == 0:                      # pragma: no cover - runs in the child, which never returns
+                os.close(read)
+                _child(self._fn, self._items, block, write)
+            os.close(write)
+            self._children.append((pid, read, block))
+        self.forked = len(self._children)
+
+    def results(self) -> list:
+        """The results in the order of the items (waits for the children).
+
+        Raises
+        ------
+        Exception
+            The first exception a task raised (in a child or here).
+        """
+        if not self._children:
+            return [self._fn(item) for item in self._items]
+        out, error = [None] * len(self._items), None
+        try:
+            while self._children:
+                pid, read, block = self._children[0]
+                with os.fdopen(read, "rb") as f:
+                    data = f.read()
+                os.waitpid(pid, 0)
+                self._children.pop(0)
+                if not data:
+                    log.warning("a forked worker died without an answer: its %d tasks run here", len(block))
+                    status, values = "ok", [self._fn(self._items[i]) for i in block]
+                else:
+                    status, values = pickle.loads(data)
+                if status == "error":
+                    error = values
+                    break
+                for i, value in zip(block, values):
+                    out[i] = value
+        finally:
+            self._stop()
+        if error is not None:
+            raise error
+        return out
+
+    def _stop(self) -> None:
+        """Kill and reap the children still running (after an error or an interruption here)."""
+        for pid, read, _ in self._children:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            os.waitpid(pid, 0)
+            try:
+                os.close(read)
+            except OSError:                   # closed already by an interrupted read
+                pass
+        self._children = []
+
+    def __del__(self):
+        if getattr(self, "_children", None):
+            self._stop()
