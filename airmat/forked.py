@@ -5,9 +5,10 @@ validation samples: 16 equilibria of a few hundred milliseconds on the model thi
 already holds), yet long enough that a second core halves it. A forked child starts in a
 millisecond with everything this process has built (the model, the factorization's
 ordering, the loaded libraries), so :class:`ForkedMap` forks up to ``workers`` children,
-each of which runs ``fn`` on a contiguous block of the items and sends the results back
-through a pipe, while this process goes on with other work; :meth:`ForkedMap.results`
-then collects them in the order of the items.
+each of which claims the next item not yet claimed (a counter in shared memory: a child
+whose items converge quickly takes more of them), runs ``fn`` on it, and at the end sends
+its results back through a pipe, while this process goes on with other work;
+:meth:`ForkedMap.results` then collects them in the order of the items.
 
 The results are those of ``[fn(item) for item in items]`` in this process: the same
 function on the same memory, no random step shared between items (each task must depend
@@ -17,7 +18,7 @@ item, :meth:`ForkedMap.results` runs the tasks here, one after the other.
 
 A child runs without progress bars or log records and dies with the default action on
 Ctrl-C; a task that raises re-raises its exception here; a child that dies without an
-answer (killed, out of memory) has its block run here instead, with a warning.
+answer (killed, out of memory) has its items run here instead, with a warning.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ import os
 import pickle
 import signal
 import sys
+
+import numpy as np
 
 __all__ = ["ForkedMap", "can_fork"]
 
@@ -38,20 +41,10 @@ def can_fork() -> bool:
     return sys.platform.startswith("linux") and hasattr(os, "fork")
 
 
-def _blocks(n: int, parts: int) -> list[range]:
-    """``range(n)`` cut into ``parts`` contiguous blocks, the first ones one longer where it does not divide.
-
-    >>> [list(b) for b in _blocks(5, 2)]
-    [[0, 1, 2], [3, 4]]
-    """
-    q, r = divmod(n, parts)
-    starts = [k * q + min(k, r) for k in range(parts + 1)]
-    return [range(starts[k], starts[k + 1]) for k in range(parts)]
-
-
-def _child(fn, items, block, fd) -> None:
-    """The forked child: run ``fn`` on ``items[block]``, write ``("ok", results)`` or ``("error", exc)`` to ``fd``,
-    exit without running this process's exit handlers."""
+def _child(fn, items, claim, fd) -> None:
+    """The forked child: claim the next item (``claim()``: its index, or None when all are claimed), run ``fn``
+    on it, until none is left; write ``("ok", [(index, result), ...])`` or ``("error", exc)`` to ``fd``; exit
+    without running this process's exit handlers."""
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_DFL)
@@ -59,7 +52,10 @@ def _child(fn, items, block, fd) -> None:
 
         set_progress(False)
         logging.disable(logging.CRITICAL)
-        payload = pickle.dumps(("ok", [fn(items[i]) for i in block]), protocol=pickle.HIGHEST_PROTOCOL)
+        done = []
+        while (i := claim()) is not None:
+            done.append((i, fn(items[i])))
+        payload = pickle.dumps(("ok", done), protocol=pickle.HIGHEST_PROTOCOL)
         code = 0
     except BaseException as exc:       # noqa: BLE001 - every failure goes back to the parent
         try:
@@ -71,6 +67,28 @@ def _child(fn, items, block, fd) -> None:
             f.write(payload)
     finally:
         os._exit(code)
+
+
+class _Counter:
+    """The next unclaimed item, shared by the forked children (a lock-guarded integer in shared memory)."""
+
+    def __init__(self, n: int):
+        import multiprocessing
+
+        self._next = multiprocessing.get_context("fork").Value("q", 0)
+        self._n = n
+
+    def __call__(self) -> int | None:
+        with self._next.get_lock():
+            i = self._next.value
+            if i >= self._n:
+                return None
+            self._next.value = i + 1
+        return i
+
+    def claimed(self) -> int:
+        with self._next.get_lock():
+            return min(self._next.value, self._n)
 
 
 class ForkedMap:
@@ -99,19 +117,20 @@ class ForkedMap:
 
     def __init__(self, fn, items, workers: int):
         self._fn, self._items = fn, list(items)
-        self._children = []                   # (pid, read end, block)
+        self._children = []                   # (pid, read end)
         parts = min(int(workers), len(self._items))
         if parts < 2 or not can_fork():
             self.forked = 0
             return
-        for block in _blocks(len(self._items), parts):
+        self._claim = _Counter(len(self._items))
+        for _ in range(parts):
             read, write = os.pipe()
             pid = os.fork()
             if pid == 0:                      # pragma: no cover - runs in the child, which never returns
                 os.close(read)
-                _child(self._fn, self._items, block, write)
+                _child(self._fn, self._items, self._claim, write)
             os.close(write)
-            self._children.append((pid, read, block))
+            self._children.append((pid, read))
         self.forked = len(self._children)
 
     def results(self) -> list:
@@ -124,33 +143,37 @@ class ForkedMap:
         """
         if not self._children:
             return [self._fn(item) for item in self._items]
-        out, error = [None] * len(self._items), None
+        out, got, error, lost = [None] * len(self._items), np.zeros(len(self._items), bool), None, False
         try:
             while self._children:
-                pid, read, block = self._children[0]
+                pid, read = self._children[0]
                 with os.fdopen(read, "rb") as f:
                     data = f.read()
                 os.waitpid(pid, 0)
                 self._children.pop(0)
                 if not data:
-                    log.warning("a forked worker died without an answer: its %d tasks run here", len(block))
-                    status, values = "ok", [self._fn(self._items[i]) for i in block]
-                else:
-                    status, values = pickle.loads(data)
+                    lost = True
+                    continue
+                status, values = pickle.loads(data)
                 if status == "error":
                     error = values
                     break
-                for i, value in zip(block, values):
-                    out[i] = value
+                for i, value in values:
+                    out[i], got[i] = value, True
         finally:
             self._stop()
         if error is not None:
             raise error
+        if lost or not got.all():
+            missing = np.flatnonzero(~got)
+            log.warning("a forked worker died without an answer: %d tasks run here", len(missing))
+            for i in missing:
+                out[i] = self._fn(self._items[i])
         return out
 
     def _stop(self) -> None:
         """Kill and reap the children still running (after an error or an interruption here)."""
-        for pid, read, _ in self._children:
+        for pid, read in self._children:
             try:
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:

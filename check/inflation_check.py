@@ -315,6 +315,9 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     Returns
     -------
     DesignCheck
+        Its runs inflated from the flat mattress (and a refined design's ``open_loop``) keep their
+        continuation's coarser solutions (``Inflation.levels``; the linear tolerance's validation
+        starts its own mesh's run from there).
 
     Raises
     ------
@@ -344,7 +347,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
     if start_set is not None:       # a refined design: from its open-loop equilibrium, as it was refined
         kb = known_run(start_set, None)
         base = kb.inflation if kb is not None else \
-            inflate(mesh, start_set if len(start_set) else None, params=params, strict=strict)
+            inflate(mesh, start_set if len(start_set) else None, params=params, strict=strict, keep_levels=True)
         log.info("open-loop lengths: %d Newton iterations in %.1f s%s; the runs start from there", base.n_iter,
                  base.seconds, " (known)" if kb is not None else "")
     reuse = known_run(string_sets[0], start_set)
@@ -352,7 +355,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         log.debug("the median run is the known inflation (%d Newton iterations): not run again", reuse.inflation.n_iter)
         to_run = to_run[1:]
     inflations = inflate_many(mesh, [s if len(s) else None for s in to_run], params=params,
-                              strict=strict, workers=workers, scheduler=scheduler, start=base)
+                              strict=strict, workers=workers, scheduler=scheduler, start=base, keep_levels=True)
     if reuse is not None:
         inflations = [replace(reuse.inflation, mesh=mesh, levels=())] + inflations
     inflations, mc_runs = inflations[:len(which_runs)], inflations[len(which_runs):]
@@ -384,7 +387,7 @@ def check(design, *, resolution: float = 0.020, params: Parameters = Parameters(
         log.info("Monte-Carlo, %d samples: RMS median %.1f mm, 95th percentile %.1f mm", samples,
                  st["rms_median"] * 1e3, st["rms_p95"] * 1e3)
     return DesignCheck(design=design, resolution=resolution, runs=runs, surface=named, lengths=lengths,
-                       monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh, levels=()),
+                       monte_carlo=mc, open_loop=None if base is None else replace(base, mesh=mesh),
                        approx_to_target=to_target(design.approx.xyz))
 
 

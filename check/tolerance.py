@@ -272,7 +272,7 @@ def _start_coarse(design, run, strings, n: int, seed: int, cov, params, *, worke
         return None
     started = time.perf_counter()
     coarse = check(design, resolution=res, params=params, envelope=False, surface=run.surface, lengths=run.lengths,
-                   workers=workers, scheduler=scheduler)
+                   workers=workers, scheduler=scheduler, known=_level_run(design, run, strings, res, params))
     clin = linearize(design, coarse.runs["median"], strings, run.surface, params)
     flat = clin.face.reshape(-1, clin.face.shape[2])
     cvar = float(np.einsum("ri,ri->", flat, flat @ cov.total))
@@ -281,6 +281,32 @@ def _start_coarse(design, run, strings, n: int, seed: int, cov, params, *, worke
     log.debug("validation on the %.0f mm mesh: its median run and Jacobian %.2f s, %d samples on %d forked "
               "processes", res * 1e3, setup, n, pending.runs.forked)
     return pending, cvar, setup
+
+
+def _level_run(design, run, strings, res: float, params):
+    """The run a check on the mesh of edge ``res`` (m) would inflate first, from ``run``'s own continuation: the
+    solution its inflation from the flat mattress (the median run's, or a refined design's open loop) holds on
+    that mesh, carried on to the check's tolerance; None when it holds none there or does not converge.
+
+    The continuation solves that mesh to a looser tolerance on the path a check there takes (the same coarser
+    meshes, ramp and start), so the carried-on solution is that check's run to its tolerance, in a few Newton
+    iterations instead of a new inflation."""
+    from airmat.check.inflation_check import KnownRun, open_loop_strings
+    from airmat.inflation.simulate import INFLATE_TOL, inflate_from
+
+    from airmat.inflation.mesh import build_mattress_mesh
+
+    refined = run.open_loop is not None
+    source = run.open_loop if refined else run.runs["median"].inflation
+    which = open_loop_strings(design, lengths=run.lengths) if refined else strings
+    m = design.mattress
+    target = build_mattress_mesh(m.width, m.height, m.thickness, resolution=res)
+    for mesh, x in source.levels:
+        if mesh.n_vertices == target.n_vertices and np.array_equal(mesh.spacing, target.spacing):
+            level = replace(source, mesh=mesh, xyz=x, levels=())
+            inf = inflate_from(level, which if len(which) else None, params=params, tol=INFLATE_TOL)
+            return KnownRun(which, inf, params, INFLATE_TOL) if inf.converged else None
+    return None
 
 
 def _fork_workers(workers: int) -> int:

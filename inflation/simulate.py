@@ -316,15 +316,15 @@ def inflate_from(start: Inflation, strings: StringSet | None, *, params: Paramet
 
 def _inflate_task(shared, strings):
     """One inflation of :func:`inflate_many` (on a worker): the mesh is left out of the result (the caller has it)."""
-    mesh, params, strict, start = shared
+    mesh, params, strict, start, keep_levels = shared
     if start is not None:
         return replace(inflate_from(replace(start, mesh=mesh), strings, params=params, strict=strict), mesh=None)
-    return replace(inflate(mesh, strings, params=params, strict=strict), mesh=None)
+    return replace(inflate(mesh, strings, params=params, strict=strict, keep_levels=keep_levels), mesh=None)
 
 
 def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = Parameters(),
                  strict: bool = False, workers: int = 1, scheduler: str | None = None,
-                 desc: str = "inflate", start: Inflation | None = None) -> list:
+                 desc: str = "inflate", start: Inflation | None = None, keep_levels: bool = False) -> list:
     """:func:`inflate` ``mesh`` once per string set, through :func:`airmat.inflation.executor.map_shared`.
 
     Each inflation is serial (the sparse Cholesky is single-threaded), so
@@ -352,6 +352,8 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
     start : Inflation, optional
         An equilibrium on ``mesh`` that every run starts from (:func:`inflate_from`)
         instead of the flat mattress; it goes to the workers once.
+    keep_levels : bool
+        Runs from the flat mattress keep their continuation's coarser solutions (:func:`inflate`'s).
 
     Returns
     -------
@@ -361,6 +363,6 @@ def inflate_many(mesh: MattressMesh, string_sets: list, *, params: Parameters = 
     from airmat.inflation.executor import map_shared
 
     start = None if start is None else replace(start, mesh=None, levels=())
-    out = map_shared(_inflate_task, (mesh, params, strict, start), string_sets, workers=workers,
+    out = map_shared(_inflate_task, (mesh, params, strict, start, keep_levels), string_sets, workers=workers,
                      scheduler=scheduler, desc=desc)
     return [replace(r, mesh=mesh) for r in out]

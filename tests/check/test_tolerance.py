@@ -362,3 +362,28 @@ def test_the_validation_on_the_coarse_mesh_finds_what_the_checks_own_mesh_finds(
         return np.sqrt(np.mean(np.sum(shift ** 2, axis=1)))
     assert rms(v.shift) == pytest.approx(rms(fine.shift), rel=0.15)
     assert coarse.block()["validation"]["resolution_mm"] == 40.0 and "40 mm mesh" in coarse.message or not reliable
+
+
+@pytest.mark.slow
+def test_the_validation_mesh_run_is_the_checks_own_continuation_carried_on():
+    """The check's median run keeps its continuation's coarser solutions; the validation's run on the 40 mm mesh
+    is the 40 mm one carried on to the check's tolerance (a few Newton iterations), the equilibrium a fresh
+    40 mm check finds, not a second inflation."""
+    from airmat.check.tolerance import _level_run
+    from airmat.design.pipeline import DesignParams, design as make_design
+    from airmat.design.presets import preset
+    from airmat.inflation.model import Parameters
+
+    target, mattress = preset("vault1")
+    d = make_design(target, mattress, params=DesignParams(spacing=0.04), progress=False)
+    run = check(d, resolution=0.02, envelope=False)
+    levels = run.runs["median"].inflation.levels
+    assert [round(float(np.max(m.spacing)), 4) for m, _ in levels] == [0.0377, 0.074]
+    strings = design_strings(d, "median", lengths=run.lengths)
+    known = _level_run(d, run, strings, 0.04, Parameters())
+    fresh = check(d, resolution=0.04, envelope=False, lengths=run.lengths).runs["median"].inflation
+    assert known is not None and known.inflation.converged and known.inflation.n_iter <= 5
+    assert np.abs(known.inflation.xyz - fresh.xyz).max() < 1e-6            # m: the same equilibrium
+    reused = check(d, resolution=0.04, envelope=False, lengths=run.lengths, known=known)
+    assert reused.runs["median"].inflation.n_iter == known.inflation.n_iter   # not inflated again
+    assert _level_run(d, run, strings, 0.05, Parameters()) is None          # no level on that mesh
