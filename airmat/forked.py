@@ -6,9 +6,9 @@ already holds), yet long enough that a second core halves it. A forked child sta
 millisecond with everything this process has built (the model, the factorization's
 ordering, the loaded libraries), so :class:`ForkedMap` forks up to ``workers`` children,
 each of which claims the next item not yet claimed (a counter in shared memory: a child
-whose items converge quickly takes more of them), runs ``fn`` on it, and at the end sends
-its results back through a pipe, while this process goes on with other work;
-:meth:`ForkedMap.results` then collects them in the order of the items.
+whose items converge quickly takes more of them), runs ``fn`` on it and sends the result
+back through a pipe, while this process goes on with other work; :meth:`ForkedMap.results`
+then collects them, as they come (a progress bar can count them), in the order of the items.
 
 The results are those of ``[fn(item) for item in items]`` in this process: the same
 function on the same memory, no random step shared between items (each task must depend
@@ -41,10 +41,16 @@ def can_fork() -> bool:
     return sys.platform.startswith("linux") and hasattr(os, "fork")
 
 
+def _frame(obj) -> bytes:
+    """``obj`` pickled behind its 8-byte length."""
+    data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    return len(data).to_bytes(8, "little") + data
+
+
 def _child(fn, items, claim, fd) -> None:
     """The forked child: claim the next item (``claim()``: its index, or None when all are claimed), run ``fn``
-    on it, until none is left; write ``("ok", [(index, result), ...])`` or ``("error", exc)`` to ``fd``; exit
-    without running this process's exit handlers."""
+    on it and write ``(index, "ok", result)`` to ``fd`` (a length-prefixed pickle), until none is left; on an
+    exception write ``(index, "error", exc)`` and stop. Exits without running this process's exit handlers."""
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_DFL)
@@ -52,19 +58,20 @@ def _child(fn, items, claim, fd) -> None:
 
         set_progress(False)
         logging.disable(logging.CRITICAL)
-        done = []
-        while (i := claim()) is not None:
-            done.append((i, fn(items[i])))
-        payload = pickle.dumps(("ok", done), protocol=pickle.HIGHEST_PROTOCOL)
+        with os.fdopen(fd, "wb") as out:
+            while (i := claim()) is not None:
+                try:
+                    frame = _frame((i, "ok", fn(items[i])))
+                except BaseException as exc:       # noqa: BLE001 - every failure goes back to the parent
+                    try:
+                        frame = _frame((i, "error", exc))
+                    except Exception:              # noqa: BLE001 - an exception that does not pickle
+                        frame = _frame((i, "error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+                    out.write(frame)
+                    break
+                out.write(frame)
+                out.flush()
         code = 0
-    except BaseException as exc:       # noqa: BLE001 - every failure goes back to the parent
-        try:
-            payload = pickle.dumps(("error", exc), protocol=pickle.HIGHEST_PROTOCOL)
-        except Exception:              # noqa: BLE001 - an exception that does not pickle
-            payload = pickle.dumps(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(payload)
     finally:
         os._exit(code)
 
@@ -133,42 +140,69 @@ class ForkedMap:
             self._children.append((pid, read))
         self.forked = len(self._children)
 
-    def results(self) -> list:
+    def results(self, on_result=None) -> list:
         """The results in the order of the items (waits for the children).
+
+        Parameters
+        ----------
+        on_result : callable, optional
+            Called with no argument as each result comes in (a progress bar's ``update``).
 
         Raises
         ------
         Exception
             The first exception a task raised (in a child or here).
         """
+        tick = on_result if on_result is not None else (lambda: None)
         if not self._children:
-            return [self._fn(item) for item in self._items]
-        out, got, error, lost = [None] * len(self._items), np.zeros(len(self._items), bool), None, False
+            out = []
+            for item in self._items:
+                out.append(self._fn(item))
+                tick()
+            return out
+        import selectors
+
+        out, got = [None] * len(self._items), np.zeros(len(self._items), bool)
+        buffers = {read: bytearray() for _, read in self._children}
+        pids = dict((read, pid) for pid, read in self._children)
+        error = None
         try:
-            while self._children:
-                pid, read = self._children[0]
-                with os.fdopen(read, "rb") as f:
-                    data = f.read()
-                os.waitpid(pid, 0)
-                self._children.pop(0)
-                if not data:
-                    lost = True
-                    continue
-                status, values = pickle.loads(data)
-                if status == "error":
-                    error = values
-                    break
-                for i, value in values:
-                    out[i], got[i] = value, True
+            with selectors.DefaultSelector() as sel:
+                for read in buffers:
+                    sel.register(read, selectors.EVENT_READ)
+                while error is None and sel.get_map():
+                    for key, _ in sel.select():
+                        read = key.fd
+                        chunk = os.read(read, 1 << 20)
+                        if not chunk:                 # the child is done (or died)
+                            sel.unregister(read)
+                            os.close(read)
+                            os.waitpid(pids[read], 0)
+                            self._children = [c for c in self._children if c[1] != read]
+                            continue
+                        buf = buffers[read]
+                        buf += chunk
+                        while len(buf) >= 8 and len(buf) >= 8 + int.from_bytes(buf[:8], "little"):
+                            size = int.from_bytes(buf[:8], "little")
+                            i, status, value = pickle.loads(bytes(buf[8:8 + size]))
+                            del buf[:8 + size]
+                            if status == "error":
+                                error = value
+                                break
+                            out[i], got[i] = value, True
+                            tick()
+                        if error is not None:
+                            break
         finally:
             self._stop()
         if error is not None:
             raise error
-        if lost or not got.all():
+        if not got.all():
             missing = np.flatnonzero(~got)
             log.warning("a forked worker died without an answer: %d tasks run here", len(missing))
             for i in missing:
                 out[i] = self._fn(self._items[i])
+                tick()
         return out
 
     def _stop(self) -> None:
