@@ -1,4 +1,4 @@
-"""The one executor of independent tasks (inflations): in this process, on forked copies of it, or on Dask.
+"""The one executor of independent tasks (inflations): in this process, or on Dask.
 
 Every set of independent inflations (a check's median / lo95 / hi95 runs,
 the Monte-Carlo samples, the validation's ratios, the gallery) goes through
@@ -7,14 +7,10 @@ order of the items.
 
 - One task, or ``workers <= 1`` without a scheduler: one after the other in
   this process (Dask is not imported: the command line starts light).
-- ``workers`` > 1 without a scheduler, on Linux: ``workers`` forked copies of
-  this process (:class:`airmat.forked.ForkedMap`), which start in a millisecond
-  with everything it holds, where a local Dask cluster's start-up costs about
-  what its workers save on a check's three runs (``bench/bench_check.py``).
-- Otherwise on :mod:`dask.distributed`: a :class:`~distributed.LocalCluster`
-  of ``workers`` single-threaded worker processes (``processes=True,
-  threads_per_worker=1``, no dashboard, quiet logs; where the platform cannot
-  fork), or an existing cluster at ``scheduler`` (``tcp://host:port``; the
+- Otherwise on :mod:`dask.distributed`: by default a
+  :class:`~distributed.LocalCluster` of ``workers`` single-threaded worker
+  processes (``processes=True, threads_per_worker=1``, no dashboard, quiet
+  logs), or an existing cluster at ``scheduler`` (``tcp://host:port``; the
   command line's ``--scheduler`` or ``AIRMAT_SCHEDULER``), whose workers
   must have airmat importable.
 
@@ -34,7 +30,6 @@ cluster and so stops the workers.
 from __future__ import annotations
 
 import contextlib
-import functools
 import logging
 import os
 import shlex
@@ -42,7 +37,6 @@ import sys
 import tempfile
 
 from airmat.errors import AirmatError, InputError, TaskError
-from airmat.forked import ForkedMap, can_fork
 from airmat.progress import progress, set_progress
 
 __all__ = ["map_shared", "local_cluster", "scheduler_address", "SCHEDULER_ENV"]
@@ -234,15 +228,6 @@ def map_shared(fn, shared, items, *, workers: int = 1, scheduler: str | None = N
     items = list(items)
     if scheduler is None and (workers <= 1 or len(items) <= 1):
         return [fn(shared, it) for it in progress(items, desc=desc, unit=unit)]
-    if scheduler is None and can_fork():
-        n = min(workers, len(items))
-        with progress(total=len(items), desc=f"{desc} ({n} forked processes)", unit=unit) as bar:
-            try:
-                return ForkedMap(functools.partial(fn, shared), items, n).results(on_result=bar.update)
-            except (AirmatError, KeyboardInterrupt):
-                raise
-            except Exception as exc:        # as from a Dask worker: airmat's errors as raised, others wrapped
-                raise TaskError(f"a task failed on a forked worker: {type(exc).__name__}: {exc}") from exc
     from distributed import as_completed
 
     n = min(workers, len(items))

@@ -19,7 +19,7 @@ BENCH = ROOT / "bench"
 HEADERS = {
     "bench_assembly.py": ["per entry (s)", "per block (s)", "same pattern"],
     "bench_calibration.py": ["vectorized (s)", "brentq loop (s)", "| step | seconds |", "| parameter | truth |"],
-    "bench_check.py": ["one after the other (s)", "forked processes (s)", "Dask processes (s)", "largest vertex difference (mm)"],
+    "bench_check.py": ["one after the other (s)", "processes (s)", "largest vertex difference (mm)"],
     "bench_cholesky.py": ["method", "symbolic (s)", "numeric (s)", "factor non-zeros"],
     "bench_coverage.py": ["k1 hole / weak / edge band", "k2 hole / weak / edge band"],
     "bench_end_dashes.py": ["end dashes", "shortest dash (mm)", "refined % diag"],

@@ -50,16 +50,13 @@ def test_one_run_does_not_import_dask():
     assert out.stdout.split() == ["False", "False"]
 
 
-def test_a_local_cluster_does_not_need_port_8787(recwarn, monkeypatch):
+def test_a_local_cluster_does_not_need_port_8787(recwarn):
     """Two runs at once (or any program on Dask's default port 8787) must not collide: the scheduler's
-    HTTP routes take a free port (it warned, and under pytest's warnings-as-errors failed, before). A local
-    cluster serves where the platform cannot fork (macOS, Windows), as here with forking turned off."""
+    HTTP routes take a free port (it warned, and under pytest's warnings-as-errors failed, before)."""
     import operator
     import socket
 
     from airmat.inflation.executor import map_shared
-
-    monkeypatch.setattr("airmat.inflation.executor.can_fork", lambda: False)
 
     holder = socket.socket()
     try:
