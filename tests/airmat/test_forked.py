@@ -16,8 +16,9 @@ def test_the_results_come_back_in_order_from_the_children():
     parent = os.getpid()
     m = ForkedMap(lambda i: (i, i * i, os.getpid()), range(7), workers=3)
     assert m.forked == 3
-    out = m.results()
-    assert [(i, sq) for i, sq, _ in out] == [(i, i * i) for i in range(7)]
+    ticks = []
+    out = m.results(on_result=lambda: ticks.append(1))
+    assert [(i, sq) for i, sq, _ in out] == [(i, i * i) for i in range(7)] and len(ticks) == 7
     pids = {pid for *_, pid in out}
     assert parent not in pids and 1 <= len(pids) <= 3     # every item on a child, each claimed once
 
