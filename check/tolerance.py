@@ -271,8 +271,10 @@ def _start_coarse(design, run, strings, n: int, seed: int, cov, params, *, worke
     if abs(res - run.resolution) < 1e-12:
         return None
     started = time.perf_counter()
-    coarse = check(design, resolution=res, params=params, envelope=False, surface=run.surface, lengths=run.lengths,
-                   workers=workers, scheduler=scheduler, known=_level_run(design, run, strings, res, params))
+    known = _level_run(design, run, strings, res, params)
+    without_s = replace(design, approx=replace(design.approx, target=None))     # no distance to S needed here
+    coarse = check(without_s, resolution=res, params=params, envelope=False, surface=run.surface,
+                   lengths=run.lengths, workers=workers, scheduler=scheduler, known=known)
     clin = linearize(design, coarse.runs["median"], strings, run.surface, params)
     flat = clin.face.reshape(-1, clin.face.shape[2])
     cvar = float(np.einsum("ri,ri->", flat, flat @ cov.total))
