@@ -180,7 +180,7 @@ def row(preset: str, resolution: float, k: int, validate: int, sigma: float, wor
         p_se = "" if v.p_within_se is None else f" ± {v.p_within_se:.2f}"
     total = wall                        # the model and its validation's samples overlap with workers > 1
     return (f"| {preset} | {workers} | {resolution / MM:g} | {len(lin.ids)} | {k} | {mc_seconds:.1f} ({t_check:.1f} wall) "
-            f"| {t_med:.1f} | {lin.seconds:.2f} | {val} | {total / t_med:.1f}x "
+            f"| {t_med:.2f} | {lin.seconds:.2f} | {val} | {total / t_med:.2f}x "
             f"| {100 * rel:.1f} % (sampling {100 * rel_se:.0f} %) "
             f"| {lst['rms_median'] / MM:.2f} / {mst['rms_median'] / MM:.2f} | {lst['rms_p95'] / MM:.2f} / "
             f"{mst['rms_p95'] / MM:.2f} | {T / MM:.1f}: {lst['p_within']:.2f}{p_se} / {mst['p_within']:.2f} "
