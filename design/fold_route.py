@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.design.closest_point import MeshProjector
+from airmat.forked import ForkedMap
 from airmat.geometry.topology import flat_vertex_areas
 
 __all__ = ["FOLD_SIGMA_BAND", "FOLD_RATIOS", "FoldTrial", "FoldRoute", "fold_route",
@@ -160,7 +161,8 @@ def _trial(approx, ratio, k_a1, band, projector) -> FoldTrial:
                      converged=bool(approx.relax.converged))
 
 
-def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_band=FOLD_SIGMA_BAND):
+def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_band=FOLD_SIGMA_BAND,
+               workers: int = 1):
     """Search the U_A weights for a folded Ŝ whose σ keeps to ``sigma_band``.
 
     Parameters
@@ -176,6 +178,10 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     ratios : sequence of float
         Factors on ``k_a1`` tried in turn; the search stops at the first Ŝ within the band.
     sigma_band : (float, float)
+    workers : int
+        Trials relaxed at a time, the next ``workers`` factors each on a forked process
+        (:class:`airmat.forked.ForkedMap`, Linux); the search still stops at the first factor within
+        the band, so the answer is the one of one trial at a time (1: one at a time, in this process).
 
     Returns
     -------
@@ -188,10 +194,16 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     projector = MeshProjector(target.vertices, target.faces)
     surfaces = [approx]
     trials = [_trial(approx, 1.0, k_a1, sigma_band, projector)]
-    for ratio in ratios:
-        log.info("fold route: relaxing with k_A1 × %g", ratio)
-        surfaces.append(relax_with(k_a1 * ratio))
-        trials.append(_trial(surfaces[-1], ratio, k_a1 * ratio, sigma_band, projector))
+    ratios, step = list(ratios), max(1, int(workers))
+    for first in range(0, len(ratios), step):
+        batch = ratios[first:first + step]
+        log.info("fold route: relaxing with k_A1 × %s", ", ".join(f"{r:g}" for r in batch))
+        relaxed = ForkedMap(relax_with, [k_a1 * r for r in batch], step).results()
+        for ratio, surface in zip(batch, relaxed):
+            surfaces.append(surface)
+            trials.append(_trial(surface, ratio, k_a1 * ratio, sigma_band, projector))
+            if trials[-1].within_band:
+                break
         if trials[-1].within_band:
             break
     found = trials[-1].within_band

@@ -225,7 +225,8 @@ def _span_notes(L: float, calibration) -> tuple:
 
 
 def design(target, mattress, *, calibration=None,
-           params: DesignParams = DesignParams(), seed: int = 0, progress: bool = True) -> DesignResult:
+           params: DesignParams = DesignParams(), seed: int = 0, progress: bool = True,
+           workers: int = 1) -> DesignResult:
     """Design the string pattern that bends ``mattress`` into an approximation of ``target``.
 
     Parameters
@@ -245,6 +246,9 @@ def design(target, mattress, *, calibration=None,
         Seed of every random step (the default calibration's samples).
     progress : bool
         Progress bar on the relaxation when on a terminal.
+    workers : int
+        Relaxations of the fold route at a time (:func:`airmat.design.fold_route.fold_route`: forked
+        processes on Linux; the same Ŝ as one at a time).
 
     Returns
     -------
@@ -282,7 +286,7 @@ def design(target, mattress, *, calibration=None,
     route = None
     if params.folds and needs_folds(approx.report):
         t = time.perf_counter()
-        approx, route = fold_route(approx, lambda k: relax(k, folds=True), k_a1=weights["k_a1"])
+        approx, route = fold_route(approx, lambda k: relax(k, folds=True), k_a1=weights["k_a1"], workers=workers)
         timings["fold_route"] = time.perf_counter() - t
     t = time.perf_counter()
     mfield = mattress_field(approx)

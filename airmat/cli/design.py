@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import re
 
+from airmat.cli._jobs import jobs
 from airmat.cli._ranges import RANGES, check_range
 from airmat.cli._vocabulary import add_out_argument, deprecated_alias
 from airmat.cli._refining import (check_corrections, check_regularization, check_rounds, refine_lines,
@@ -92,6 +93,9 @@ def add_parser(sub, parents):
                         "them (see 'airmat refine --reparametrize'; default 1)")
     add_out_argument(p, "design", "design.json, approx_surface.ply/.obj, target.ply, pattern.svg, pattern.dxf, "
                                "cutting_list.csv, preview.png, design.3dm (Rhino), report.html")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="fold-route relaxations at a time, one forked process each (Linux; default: the CPU "
+                        "cores; the same design as one at a time)")
     p.add_argument("--paper", action="append", choices=("A4", "A3"), default=None,
                    help="also write pattern_A4.pdf / pattern_A3.pdf: the 1:1 drawing tiled over pages of that "
                         "size, with crop marks, page numbers and a 20 mm overlap (repeat for both)")
@@ -246,7 +250,7 @@ def run(args) -> int:
     check_corrections("--refine-defect-corrections", args.refine_defect_corrections, args.refine_single_level,
                       "--refine-single-level")
     result = design(load(), mattress, calibration=calibration, params=params, seed=args.seed,
-                    progress=progress_enabled())
+                    progress=progress_enabled(), workers=jobs(args))
     failed = design_not_converged(result)
     if args.refine:
         from airmat.units import MM

@@ -153,6 +153,7 @@ def test_units_slip_is_refused(tmp_path, capsys):
     (["--preset", "vault1", "--L-mm", "900", "--mu1-mm", "1000"], "longer than the mattress"),
     (["--preset", "vault1", "--mu2-mm", "0"], "mu2"),
     (["--preset", "vault1", "--tie-grid-mm", "-20"], "--tie-grid-mm"),
+    (["--preset", "vault1", "--jobs", "0"], "--jobs must be at least 1"),
     (["--preset", "vault1", "--end-dashes", "--L-end-min-mm", "400"], "shortest end dash must be in (0, L = 300 mm]"),
     (["--preset", "vault1", "--L-end-min-mm", "100"], "--L-end-min-mm needs --end-dashes"),
     (["--preset", "vault1", "--calibration", "CAL_MISSING_FIELD"], "parameters.d_mm"),

@@ -166,3 +166,27 @@ def test_without_a_weight_within_the_band_the_best_found_is_kept_and_said():
     assert not route.found and route.chosen == 2          # σ leaves the band least there (0.02)
     assert approx.report.sigma["max"] == 1.09
     assert route.message.startswith("no constructible Ŝ") and "× 10" in route.message
+
+
+def test_trials_side_by_side_choose_as_one_at_a_time():
+    """With workers, the next factors relax together (forked processes on Linux); the search still takes the first
+    within the band, and a later trial of the same batch is dropped."""
+    import os
+
+    from airmat.forked import can_fork
+
+    def relax_with(table):
+        def relax(k):
+            s = _stand_in(*table[k])
+            s.pid = os.getpid()
+            return s
+        return relax
+
+    first_in = {3.0: (0.95, 1.05, 0.001), 10.0: (0.97, 1.03, 0.002), 30.0: (0.97, 1.03, 0.003)}
+    second_in = {3.0: (0.90, 1.10, 0.001), 10.0: (0.95, 1.05, 0.002), 30.0: (0.97, 1.03, 0.003)}
+    for table, chosen in ((first_in, 1), (second_in, 2)):
+        one = fold_route(_stand_in(0.85, 1.2, 0.0), relax_with(table), k_a1=1.0, ratios=(3.0, 10.0, 30.0))
+        two = fold_route(_stand_in(0.85, 1.2, 0.0), relax_with(table), k_a1=1.0, ratios=(3.0, 10.0, 30.0), workers=2)
+        assert one[1].chosen == two[1].chosen == chosen and one[1].trials == two[1].trials
+        assert np.array_equal(one[0].xyz, two[0].xyz)
+        assert one[0].pid == os.getpid() and (two[0].pid != os.getpid()) == can_fork()
