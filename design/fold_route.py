@@ -26,6 +26,7 @@ import numpy as np
 
 from airmat.design.closest_point import MeshProjector
 from airmat.forked import ForkedMap
+from airmat.progress import progress
 from airmat.geometry.topology import flat_vertex_areas
 
 __all__ = ["FOLD_SIGMA_BAND", "FOLD_RATIOS", "FoldTrial", "FoldRoute", "fold_route",
@@ -198,7 +199,13 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     for first in range(0, len(ratios), step):
         batch = ratios[first:first + step]
         log.info("fold route: relaxing with k_A1 × %s", ", ".join(f"{r:g}" for r in batch))
-        relaxed = ForkedMap(relax_with, [k_a1 * r for r in batch], step).results()
+        runs = ForkedMap(relax_with, [k_a1 * r for r in batch], step)
+        if runs.forked:         # the relaxations' own bars are off in the forked processes: count the trials
+            with progress(total=len(batch), desc=f"fold route (k_A1 × {', '.join(f'{r:g}' for r in batch)})",
+                          unit="trial") as bar:
+                relaxed = runs.results(on_result=bar.update)
+        else:
+            relaxed = runs.results()
         for ratio, surface in zip(batch, relaxed):
             surfaces.append(surface)
             trials.append(_trial(surface, ratio, k_a1 * ratio, sigma_band, projector))
