@@ -44,6 +44,7 @@ import numpy as np  # noqa: E402
 
 from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
+from inflation_target import SAME_MM, largest_gap_mm, seconds_target  # noqa: E402
 
 PRESETS = ("vault1", "saddle", "vault2", "roof")
 
@@ -154,11 +155,10 @@ def main(argv=None) -> int:
                 last[way] = (run, counts.factorizations, counts.cg)
         runs = {w: (last[w][0], statistics.median(times[w]), last[w][1], last[w][2]) for w in ways}
         (a, ta, _, _), (b, tb, _, cg) = runs["Cholesky"], runs["PCG"]
-        gap = float(np.max(np.linalg.norm(a.xyz - b.xyz, axis=1))) / MM
-        target = 2.0 if m.width < 1.0 else 10.0
+        gap, target = largest_gap_mm(a, b), seconds_target(m)
         cells = " | ".join(f"{t:.1f} | {r.n_iter} | {f}" for r, t, f, _ in runs.values())
         print(f"| {preset} | {kind} | {m.width / MM:.0f} x {m.height / MM:.0f} | {res:g} | {unknowns} | {cells} | {cg} "
-              f"| {ta / tb:.2f}x | {gap:.5f} | {target:g} | {'yes' if min(ta, tb) <= target and gap <= 0.1 else 'no'} |",
+              f"| {ta / tb:.2f}x | {gap:.5f} | {target:g} | {'yes' if min(ta, tb) <= target and gap <= SAME_MM else 'no'} |",
               flush=True)
     return 0
 

@@ -294,9 +294,8 @@ def _level_run(design, run, strings, res: float, params):
     meshes, ramp and start), so the carried-on solution is that check's run to its tolerance, in a few Newton
     iterations instead of a new inflation."""
     from airmat.check.inflation_check import KnownRun, open_loop_strings
-    from airmat.inflation.simulate import INFLATE_TOL, inflate_from
-
     from airmat.inflation.mesh import build_mattress_mesh
+    from airmat.inflation.simulate import INFLATE_TOL, inflate_from
 
     refined = run.open_loop is not None
     source = run.open_loop if refined else run.runs["median"].inflation
@@ -380,10 +379,10 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
                             cut_distribution=cut_distribution)
     prepared = time.perf_counter() - started
     med = run.runs["median"]
-    spread = bool(np.any(cov.total))
-    forks = _fork_workers(workers) if validate and spread else 1
+    validating = bool(validate) and bool(np.any(cov.total))       # no spread: nothing to validate
+    forks = _fork_workers(workers) if validating else 1
     coarse = (_start_coarse(design, run, strings, int(validate), seed, cov, params, workers=workers,
-                            scheduler=scheduler, forks=forks) if validate and spread else None)
+                            scheduler=scheduler, forks=forks) if validating else None)
     started = time.perf_counter()       # the model's own time (its validation's samples may run beside it)
     lin = linearize(design, med, strings, run.surface, params)
     a = lin.face
@@ -399,7 +398,7 @@ def tolerance(design, *, run=None, resolution: float = 0.020, params: Parameters
     share = contrib / contrib.sum() if contrib.sum() > 0 else np.zeros_like(contrib)
     seconds = prepared + time.perf_counter() - started
     val = None
-    if validate and spread:
+    if validating:
         if coarse is not None:          # its samples ran beside the model above
             pending, cvar, setup = coarse
             val = finish_validation(pending, cvar, base=base, spread_correction=spread_correction)

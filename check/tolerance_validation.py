@@ -74,7 +74,6 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.sparse as sp
 
 from airmat.check.face_linearization import Linearization, align_faces
 from airmat.check.length_covariance import LengthCovariance
@@ -86,8 +85,8 @@ from airmat.inflation.cholesky import ShiftedCholesky
 from airmat.inflation.model import with_strings
 from airmat.inflation.solver import NewtonSystem, solve
 
-__all__ = ["Validation", "sample_validation", "start_validation", "finish_validation", "PendingValidation", "antithetic", "pair_statistics", "variance_ratio", "spread_scale",
-           "rms_shift_se", "validation_resolution",
+__all__ = ["Validation", "sample_validation", "start_validation", "finish_validation", "PendingValidation",
+           "antithetic", "pair_statistics", "variance_ratio", "spread_scale", "rms_shift_se", "validation_resolution",
            "VALIDATION_SAMPLES", "VALIDATION_COARSEST", "RELIABLE_ERROR", "RELIABLE_P", "VALIDATION_TOL"]
 
 #: full samples (antithetic pairs) that give the mean shift and check the model, by default: 8 pairs, so
@@ -240,9 +239,7 @@ def _carry_on(lin: Linearization, x0: np.ndarray, mesh, strings, delta: np.ndarr
         return np.full_like(x0, np.nan), False
 
     if len(delta):          # the ordering and symbolic analysis once, before any fork
-        asm = lin.assembler
-        system.chol = ShiftedCholesky(sp.csr_matrix((np.ones(len(asm.indices)), asm.indices, asm.indptr),
-                                                    shape=(asm.n_free, asm.n_free)), system.groups)
+        system.chol = ShiftedCholesky(lin.assembler.pattern(), system.groups)
     return ForkedMap(equilibrium, [(j, sign) for j in range(len(delta)) for sign in (1.0, -1.0)], workers)
 
 

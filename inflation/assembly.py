@@ -42,6 +42,10 @@ class Assembler:
     def nnz(self) -> int:
         return len(self.indices)
 
+    def pattern(self) -> sp.csr_matrix:
+        """The reduced CSR pattern with every entry 1 (what a symbolic factorization needs)."""
+        return sp.csr_matrix((np.ones(self.nnz), self.indices, self.indptr), shape=(self.n_free, self.n_free))
+
     def assemble(self, blocks: list) -> sp.csr_matrix:
         """Sum blocks (list of (b_i, 3, 3), in the pattern's order) into the reduced CSR matrix."""
         vals = np.concatenate([b.reshape(-1) for b in blocks])
