@@ -205,6 +205,11 @@ class ForkedMap:
                 tick()
         return out
 
+    def cancel(self) -> None:
+        """Give the results up: the children still running are killed and reaped, and nothing runs here."""
+        self._stop()
+        self._items = []
+
     def _stop(self) -> None:
         """Kill and reap the children still running (after an error or an interruption here)."""
         for pid, read in self._children:

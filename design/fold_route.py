@@ -25,12 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from airmat.design.closest_point import MeshProjector
-from airmat.forked import ForkedMap
+from airmat.forked import ForkedMap, can_fork
 from airmat.progress import progress
-from airmat.geometry.topology import flat_vertex_areas
+from airmat.geometry.topology import boundary_vertices, flat_vertex_areas
 
-__all__ = ["FOLD_SIGMA_BAND", "FOLD_RATIOS", "FoldTrial", "FoldRoute", "fold_route",
-           "fold_vertices", "needs_folds"]
+__all__ = ["FOLD_SIGMA_BAND", "FOLD_RATIOS", "FoldTrial", "FoldRoute", "fold_route", "start_trials",
+           "fold_vertices", "needs_folds", "folds_likely", "total_curvature", "cap_curvature"]
 
 log = logging.getLogger(__name__)
 
@@ -144,6 +144,68 @@ def needs_folds(report) -> bool:
     return report is not None and report.sigma["min"] < report.sigma_band[0]
 
 
+def total_curvature(vertices, faces) -> float:
+    """∫K dA over a triangle mesh's interior: the sum of its interior vertices' angle defects
+    (trimesh's ``vertex_defects``; dimensionless). The rim's own ring is left out, so an open mesh
+    reads a little low: a spherical cap of 60° (∫K = π) meshed at 1/50 of its radius reads 3.0.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> sphere = trimesh.creation.icosphere(subdivisions=5)
+    >>> cap = trimesh.Trimesh(sphere.vertices, sphere.faces[sphere.triangles_center[:, 2] > 0.5])
+    >>> round(total_curvature(cap.vertices, cap.faces), 1)
+    3.0
+    """
+    import trimesh
+
+    vertices, faces = np.asarray(vertices, float), np.asarray(faces)
+    defects = trimesh.Trimesh(vertices, faces, process=False).vertex_defects
+    inner = np.ones(len(vertices), bool)
+    inner[boundary_vertices(faces)] = False
+    used = np.zeros(len(vertices), bool)
+    used[faces.ravel()] = True
+    return float(defects[inner & used].sum())
+
+
+def cap_curvature(sigma: float) -> float:
+    """The total curvature 2π (1 − cos θ) of the spherical cap whose rim a flat disc reaches only by
+    contracting it to ``sigma`` (sin θ / θ = σ: the disc keeps its radius along the sphere).
+
+    Examples
+    --------
+    >>> round(cap_curvature(0.93), 2)
+    1.3
+    """
+    from scipy.optimize import brentq
+
+    theta = brentq(lambda t: np.sin(t) / t - sigma, 1e-6, np.pi)
+    return float(2.0 * np.pi * (1.0 - np.cos(theta)))
+
+
+def folds_likely(target, sigma_band=FOLD_SIGMA_BAND) -> bool:
+    """Whether S holds more Gaussian curvature than a disc reaches within the band: more than the
+    spherical cap whose rim contracts to the band's lower end (:func:`cap_curvature`, 1.30 at 0.93).
+
+    A forecast, for scheduling only (:func:`start_trials`): the fold route itself runs where the plain
+    Ŝ contracts (:func:`needs_folds`). On the presets and the zoo (``airmat.synthetic.zoo``) it holds for
+    the three domes the fold route takes (the dome preset 7.97, dome-r450 4.25, dome-r1000-large 4.95)
+    and for nothing else (vault2 0.94, vault1 0.90, the shallow dome 0.12; saddles are negative).
+    """
+    return total_curvature(target.vertices, target.faces) > cap_curvature(sigma_band[0])
+
+
+def start_trials(relax_with, *, k_a1: float, ratios=FOLD_RATIOS, workers: int = 1):
+    """The fold route's first ``workers`` relaxations started now on forked processes, beside the plain one
+    this process is about to run (:class:`airmat.forked.ForkedMap`); None where nothing would fork (one
+    worker, no fork). :func:`fold_route` takes them (``started``) where the plain Ŝ needs folds; else they
+    are given up (``cancel()``). The same relaxations as the route would start after the plain one."""
+    step = max(1, int(workers))
+    if step < 2 or not can_fork():
+        return None
+    return ForkedMap(relax_with, [k_a1 * r for r in list(ratios)[:step]], step)
+
+
 def fold_vertices(kappa, kappa_max: float) -> np.ndarray:
     """Vertices where |κ| exceeds the reachable curvature, shape (n,) bool: the folds of a folded Ŝ."""
     return np.abs(np.asarray(kappa)).max(axis=1) > kappa_max
@@ -163,7 +225,7 @@ def _trial(approx, ratio, k_a1, band, projector) -> FoldTrial:
 
 
 def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_band=FOLD_SIGMA_BAND,
-               workers: int = 1):
+               workers: int = 1, started=None):
     """Search the U_A weights for a folded Ŝ whose σ keeps to ``sigma_band``.
 
     Parameters
@@ -183,6 +245,9 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
         Trials relaxed at a time, the next ``workers`` factors each on a forked process
         (:class:`airmat.forked.ForkedMap`, Linux); the search still stops at the first factor within
         the band, so the answer is the one of one trial at a time (1: one at a time, in this process).
+    started : airmat.forked.ForkedMap, optional
+        The first ``workers`` relaxations, already started beside the plain one (:func:`start_trials`
+        with the same ``relax_with``, ``k_a1``, ``ratios`` and ``workers``).
 
     Returns
     -------
@@ -199,7 +264,7 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     for first in range(0, len(ratios), step):
         batch = ratios[first:first + step]
         log.info("fold route: relaxing with k_A1 × %s", ", ".join(f"{r:g}" for r in batch))
-        runs = ForkedMap(relax_with, [k_a1 * r for r in batch], step)
+        runs = started if first == 0 and started is not None else ForkedMap(relax_with, [k_a1 * r for r in batch], step)
         if runs.forked:         # the relaxations' own bars are off in the forked processes: count the trials
             with progress(total=len(batch), desc=f"fold route (k_A1 × {', '.join(f'{r:g}' for r in batch)})",
                           unit="trial") as bar:

@@ -24,7 +24,7 @@ from airmat.calib.model import kappa_max
 from airmat.design.calibration_source import CalibrationSource, default_calibration, from_calibration
 from airmat.design.coverage import pattern_coverage
 from airmat.design.field import MattressField
-from airmat.design.fold_route import FOLD_SIGMA_BAND, FoldRoute, fold_route, needs_folds
+from airmat.design.fold_route import FOLD_SIGMA_BAND, FoldRoute, fold_route, folds_likely, needs_folds, start_trials
 from airmat.design.pattern import Pattern
 from airmat.design.string_lengths import string_pattern
 from airmat.design.stripes import StripeParams, Stripes, check_stripe_params, trace_stripes
@@ -248,7 +248,9 @@ def design(target, mattress, *, calibration=None,
         Progress bar on the relaxation when on a terminal.
     workers : int
         Relaxations of the fold route at a time (:func:`airmat.design.fold_route.fold_route`: forked
-        processes on Linux; the same Ŝ as one at a time).
+        processes on Linux; the same Ŝ as one at a time). Where the target holds more Gaussian curvature
+        than a disc reaches within the fold band (:func:`~airmat.design.fold_route.folds_likely`), the
+        route's first ``workers`` relaxations start beside the plain one.
 
     Returns
     -------
@@ -281,13 +283,27 @@ def design(target, mattress, *, calibration=None,
                                    kappa_max=reach, progress=progress, face_metric=params.face_metric,
                                    kappa_min=params.kappa_min, string_margin=params.margin, folds=folds, **band)
 
-    approx = relax(weights["k_a1"])
+    def relax_folded(k_a1: float) -> ApproxSurface:
+        return relax(k_a1, folds=True)
+
+    # a target with more Gaussian curvature than a disc reaches within the fold band: the fold route's first
+    # relaxations start beside the plain one (given up if the plain Ŝ needs no folds; the same Ŝ either way)
+    early = (start_trials(relax_folded, k_a1=weights["k_a1"], workers=workers)
+             if params.folds and workers > 1 and folds_likely(target) else None)
+    try:
+        approx = relax(weights["k_a1"])
+    except BaseException:
+        if early is not None:
+            early.cancel()
+        raise
     timings = dict(approx.timings)
     route = None
     if params.folds and needs_folds(approx.report):
         t = time.perf_counter()
-        approx, route = fold_route(approx, lambda k: relax(k, folds=True), k_a1=weights["k_a1"], workers=workers)
+        approx, route = fold_route(approx, relax_folded, k_a1=weights["k_a1"], workers=workers, started=early)
         timings["fold_route"] = time.perf_counter() - t
+    elif early is not None:
+        early.cancel()
     t = time.perf_counter()
     mfield = mattress_field(approx)
     timings["transfer"] = time.perf_counter() - t

@@ -79,3 +79,34 @@ def test_one_worker_or_one_item_runs_here():
     parent = os.getpid()
     for m in (ForkedMap(lambda i: os.getpid(), range(3), workers=1), ForkedMap(lambda i: os.getpid(), [0], workers=4)):
         assert m.forked == 0 and set(m.results()) == {parent}
+
+
+@forks
+def test_cancel_kills_and_reaps_the_children_and_runs_nothing_here():
+    import time
+
+    ran_here = []
+
+    def task(i):
+        if os.getpid() == parent:
+            ran_here.append(i)
+        time.sleep(30)
+        return i
+
+    parent = os.getpid()
+    m = ForkedMap(task, range(2), workers=2)
+    children = [pid for pid, _ in m._children]
+    started = time.perf_counter()
+    m.cancel()
+    assert time.perf_counter() - started < 5 and not ran_here
+    for pid in children:
+        with pytest.raises(ChildProcessError):
+            os.waitpid(pid, os.WNOHANG)
+    assert m.results() == [] and not ran_here
+
+
+def test_cancel_without_children_runs_nothing():
+    ran = []
+    m = ForkedMap(ran.append, [1, 2], workers=1)
+    m.cancel()
+    assert m.results() == [] and ran == []

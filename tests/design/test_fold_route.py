@@ -14,7 +14,8 @@ import pytest
 
 from airmat.design.constructibility import FOLD_SHARE_MAX, constructibility
 from airmat.design.design_io import read_design, write_design
-from airmat.design.fold_route import FOLD_SIGMA_BAND, fold_route, needs_folds
+from airmat.design.fold_route import (FOLD_SIGMA_BAND, cap_curvature, fold_route, folds_likely, needs_folds,
+                                      total_curvature)
 from airmat.design.mattress import Mattress, triangulate_mattress
 from airmat.design.pipeline import DesignParams, design
 from airmat.design.presets import preset
@@ -190,3 +191,93 @@ def test_trials_side_by_side_choose_as_one_at_a_time():
         assert one[1].chosen == two[1].chosen == chosen and one[1].trials == two[1].trials
         assert np.array_equal(one[0].xyz, two[0].xyz)
         assert one[0].pid == os.getpid() and (two[0].pid != os.getpid()) == can_fork()
+
+
+def test_total_curvature_is_the_caps_and_a_cylinders_is_zero():
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    for z in (0.5, 0.0):                                   # caps of 60° and 90°: ∫K = 2π (1 − cos θ)
+        cap = trimesh.Trimesh(sphere.vertices, sphere.faces[sphere.triangles_center[:, 2] > z])
+        exact = 2 * np.pi * (1 - z)
+        assert total_curvature(cap.vertices, cap.faces) == pytest.approx(exact, rel=0.06)
+        assert total_curvature(cap.vertices, cap.faces) < exact          # the rim's ring is left out
+    uv, faces = triangulate_mattress(Mattress(1.2, 0.7), spacing=0.05)   # a flat sheet rolled onto R = 0.3 m
+    cylinder = np.column_stack([0.3 * np.sin(uv[:, 0] / 0.3), uv[:, 1], 0.3 * np.cos(uv[:, 0] / 0.3)])
+    assert abs(total_curvature(cylinder, faces)) < 0.02
+
+
+def test_cap_curvature_is_the_cap_whose_rim_contracts_to_sigma():
+    for sigma in (0.9, 0.93, 0.97):
+        theta = np.arccos(1 - cap_curvature(sigma) / (2 * np.pi))
+        assert np.sin(theta) / theta == pytest.approx(sigma, abs=1e-9)
+    assert cap_curvature(0.9) > cap_curvature(0.93) > cap_curvature(0.97) > 0
+
+
+def test_folds_are_forecast_for_the_dome_preset_only():
+    assert folds_likely(preset("dome")[0])
+    for name in ("vault1", "saddle", "vault2", "roof"):
+        assert not folds_likely(preset(name)[0]), name
+
+
+@pytest.mark.skipif(not __import__("airmat.forked", fromlist=["can_fork"]).can_fork(), reason="forks on Linux only")
+def test_the_first_trials_start_beside_the_plain_relaxation(dome, monkeypatch):
+    """Where folds are forecast, the route's first relaxations start before the plain one and the route takes
+    them: the same Ŝ, route and strings as one relaxation at a time."""
+    import airmat.design.pipeline as pipeline
+
+    started = []
+
+    def recording(*args, **kw):
+        m = pipeline_start(*args, **kw)
+        started.append(m)
+        return m
+
+    import airmat.design.fold_route as route_module
+
+    made = []
+
+    class Counted(route_module.ForkedMap):
+        def __init__(self, *args, **kw):
+            made.append(args[1])
+            super().__init__(*args, **kw)
+
+    pipeline_start = pipeline.start_trials
+    monkeypatch.setattr(pipeline, "start_trials", recording)
+    monkeypatch.setattr(route_module, "ForkedMap", Counted)
+    target, mattress = preset("dome")
+    two = design(target, mattress, params=DesignParams(spacing=0.04), progress=False, workers=2)
+    assert len(started) == 1 and started[0].forked == 2 and not started[0]._children    # collected, reaped
+    assert dome.fold_route.chosen <= 2 and made == [started[0]._items]      # the first batch answered: no other
+    assert two.fold_route.trials == dome.fold_route.trials and two.fold_route.chosen == dome.fold_route.chosen
+    assert np.array_equal(two.approx.xyz, dome.approx.xyz)
+    assert [s.l_median for s in two.pattern.strings] == [s.l_median for s in dome.pattern.strings]
+
+
+@pytest.mark.skipif(not __import__("airmat.forked", fromlist=["can_fork"]).can_fork(), reason="forks on Linux only")
+def test_trials_started_for_nothing_are_given_up(monkeypatch):
+    """A forecast of folds that the plain Ŝ does not bear out: the started relaxations are killed, the design is
+    the one of one process."""
+    import os
+
+    import airmat.design.pipeline as pipeline
+
+    started = []
+
+    def recording(*args, **kw):
+        m = pipeline_start(*args, **kw)
+        started.append((m, [pid for pid, _ in m._children]))
+        return m
+
+    pipeline_start = pipeline.start_trials
+    monkeypatch.setattr(pipeline, "start_trials", recording)
+    monkeypatch.setattr(pipeline, "folds_likely", lambda target: True)
+    target, mattress = preset("vault1")
+    params = DesignParams(spacing=0.04)
+    two = design(target, mattress, params=params, progress=False, workers=2)
+    one = design(target, mattress, params=params, progress=False, workers=1)
+    assert len(started) == 1 and len(started[0][1]) == 2 and two.fold_route is None
+    for pid in started[0][1]:
+        with pytest.raises(ChildProcessError):
+            os.waitpid(pid, os.WNOHANG)
+    assert np.array_equal(two.approx.xyz, one.approx.xyz)
