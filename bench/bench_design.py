@@ -92,7 +92,7 @@ def markdown(rows: list[dict], threads_column: bool = False, jobs_columns: bool 
     """The results as a Markdown table (with ``jobs_columns``: the processes, the early start and whether Ŝ is the
     first row's of the same preset to the bit)."""
     head = ["preset", "vertices", *STAGES, "total (s)", "total min – max (s)", "target", "strings", "σ min/avg/max",
-            "|κ1| avg/max", "|κ2| avg/max", "relax conv."] + (["BVH threads"] if threads_column else [])
+            "abs κ1 avg/max", "abs κ2 avg/max", "relax conv."] + (["BVH threads"] if threads_column else [])
     head += ["jobs", "fold trials beside the plain Ŝ", "same Ŝ"] if jobs_columns else []
     first = {}
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
