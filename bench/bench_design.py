@@ -7,6 +7,7 @@ Usage::
     .venv/bin/python bench/bench_design.py --repeats 3          # medians of 3 runs and the spread
     .venv/bin/python bench/bench_design.py --repeats 3 --bvh-threads 1 auto   # the closest-point threads
     .venv/bin/python bench/bench_design.py --presets dome --repeats 3 --jobs 1 2 --early off on   # the fold route
+    .venv/bin/python bench/bench_design.py --presets dome-r450 --jobs 2 --early off on            # a zoo target
     .venv/bin/python bench/bench_design.py --quick          # a smoke run: vault1, 40 mm mesh, once
 
 Prints a Markdown table: seconds per stage (preset build, the surface
@@ -43,6 +44,17 @@ from airmat.design.presets import PRESETS, preset  # noqa: E402
 from airmat.design.design_io import write_design  # noqa: E402
 from airmat.design.pipeline import DesignParams, design  # noqa: E402
 
+def load_target(name: str):
+    """A preset's target and mattress, or a zoo target's (``airmat.synthetic.zoo``) by name."""
+    if name in PRESETS:
+        return preset(name)
+    from airmat.design.mattress import Mattress
+    from airmat.synthetic.zoo import by_name
+
+    target = by_name(name)
+    return target, Mattress(*target.mattress)
+
+
 STAGES = ("preset", "triangulate", "relax", "curvature", "report", "fold_route", "transfer", "stripes", "lengths",
           "export")
 LIMITS = {"small": 10.0, "large": 60.0}
@@ -62,7 +74,7 @@ def bench_one(name: str, spacing: float, seed: int = 0, threads: str = "auto", j
         with mock.patch("airmat.design.pipeline.folds_likely", lambda target: False):
             return {**bench_one(name, spacing, seed, jobs=jobs), "early": early}
     t = time.perf_counter()
-    target, mattress = preset(name)
+    target, mattress = load_target(name)
     times = {"preset": time.perf_counter() - t}
     result = design(target, mattress, params=DesignParams(spacing=spacing), seed=seed, progress=False, workers=jobs)
     times.update(result.timings)
@@ -114,7 +126,8 @@ def markdown(rows: list[dict], threads_column: bool = False, jobs_columns: bool 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--presets", nargs="+", default=list(PRESETS), choices=PRESETS)
+    parser.add_argument("--presets", nargs="+", default=list(PRESETS), metavar="NAME",
+                        help="presets or zoo targets (airmat.synthetic.zoo) by name (default: every preset)")
     parser.add_argument("--spacing-mm", type=float, default=20.0, help="Ω mesh spacing (default 20 mm)")
     parser.add_argument("--repeats", type=int, default=1, help="runs of every preset (medians reported)")
     parser.add_argument("--bvh-threads", nargs="+", default=None, metavar="N|auto",
