@@ -80,7 +80,7 @@ def bench_one(name: str, spacing: float, seed: int = 0, threads: str = "auto", j
     times.update(result.timings)
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
-        write_design(result, tmp)
+        write_design(result, tmp, workers=jobs)
         times["export"] = time.perf_counter() - t
     size = "small" if max(mattress.width, mattress.height) < 1.0 else "large"
     r = result.approx.report

@@ -119,7 +119,7 @@ def document(result: DesignResult) -> dict:
     return doc
 
 
-def write_design(result: DesignResult, folder, *, papers: tuple = ()) -> dict:
+def write_design(result: DesignResult, folder, *, papers: tuple = (), workers: int = 1) -> dict:
     """Write every output file of ``result`` into ``folder`` (use inside ``airmat.atomic.staged_dir``).
 
     Parameters
@@ -128,17 +128,32 @@ def write_design(result: DesignResult, folder, *, papers: tuple = ()) -> dict:
     folder : str or Path
     papers : tuple of {"A4", "A3"}, keyword-only
         Also write ``pattern_<paper>.pdf``, the drawing tiled at 1:1 (:mod:`airmat.design.export.pdf`).
+    workers : int, keyword-only
+        With 2 or more, the preview (matplotlib: the slowest file of a small design) and the rest are
+        written side by side on forked processes (:class:`airmat.forked.ForkedMap`, Linux); the same files.
 
     Returns
     -------
     dict
         The design document (content of design.json).
     """
-    from airmat.design.export import write_3dm, write_cutting_list, write_dxf, write_pdf, write_preview, write_svg
+    from airmat.forked import ForkedMap
 
     folder = Path(folder)
-    a, m = result.approx, result.approx.mattress
     doc = document(result)
+    ForkedMap(lambda part: _write_part(part, result, doc, folder, papers), ("preview", "rest"),
+              min(int(workers), 2)).results()
+    return doc
+
+
+def _write_part(part: str, result: DesignResult, doc: dict, folder: Path, papers: tuple) -> None:
+    """One of :func:`write_design`'s two groups of files: ``"preview"`` (preview.png) or ``"rest"``."""
+    from airmat.design.export import write_3dm, write_cutting_list, write_dxf, write_pdf, write_preview, write_svg
+
+    a, m = result.approx, result.approx.mattress
+    if part == "preview":
+        write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
+        return
     write_design_json(folder / "design.json", doc)
     write_approx_surface(folder, a.xyz, a.uv, a.faces, width=m.width, height=m.height)
     if a.target is not None:        # a design read from a folder without target.ply has none
@@ -147,11 +162,9 @@ def write_design(result: DesignResult, folder, *, papers: tuple = ()) -> dict:
     write_svg(folder / "pattern.svg", doc)
     write_dxf(folder / "pattern.dxf", doc)
     write_cutting_list(folder / "cutting_list.csv", doc)
-    write_preview(folder / "preview.png", doc, a.xyz, a.uv, a.faces)
     write_3dm(folder / "design.3dm", doc, a.xyz, a.uv, a.faces)
     for paper in papers:  # on request: tens of pages, seconds each on a large mattress
         write_pdf(folder / f"pattern_{paper}.pdf", doc, paper)
-    return doc
 
 
 # --- reading ------------------------------------------------------------------------------------------

@@ -174,7 +174,7 @@ def run(args) -> int:
             refinement = refine(result, resolution=args.resolution_mm * MM)
             result = refinement.design
             seconds["refine"] = time.perf_counter() - t
-        write_design(result, tmp / "design")
+        write_design(result, tmp / "design", workers=workers)
 
         t = time.perf_counter()
         log.info("inflate: %g mm", args.resolution_mm)

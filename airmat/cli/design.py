@@ -262,7 +262,7 @@ def run(args) -> int:
         result = refinement.design
         failed += refine_not_converged(refinement)
     with staged(args.out) as tmp:
-        doc = write_design(result, tmp, papers=tuple(dict.fromkeys(args.paper or ())))
+        doc = write_design(result, tmp, papers=tuple(dict.fromkeys(args.paper or ())), workers=jobs(args))
         write_report(tmp, design=result, title=f"airmat design: {result.name}")
     print(summary_text(doc, args.out))
     return not_converged("design", failed)

@@ -110,7 +110,7 @@ def run(args) -> int:
                 t = time.perf_counter()
                 refinement = refine(result, resolution=args.resolution_mm * MM)
                 result, t_refine = refinement.design, time.perf_counter() - t
-            write_design(result, tmp / name / "design")
+            write_design(result, tmp / name / "design", workers=workers)
             t = time.perf_counter()
             checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args),
                             known=refinement.known_runs if refinement else None)

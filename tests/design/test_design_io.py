@@ -25,6 +25,26 @@ def test_folder_holds_every_output_file(vault):
     assert sorted(p.name for p in folder.iterdir()) == sorted(OUTPUT_FILES)
 
 
+def test_two_processes_write_the_same_files(vault, tmp_path):
+    """With workers the preview is drawn on a forked process beside the other files (Linux): the same bytes."""
+    result, folder = vault
+    write_design(result, tmp_path, workers=2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(OUTPUT_FILES)
+    for name in OUTPUT_FILES:
+        assert (tmp_path / name).read_bytes() == (folder / name).read_bytes(), name
+
+
+def test_a_failing_writer_fails_the_write_with_its_own_error(vault, tmp_path, monkeypatch):
+    import airmat.design.export as export
+
+    def broken(*args, **kw):
+        raise OSError("disk full while drawing the preview")
+
+    monkeypatch.setattr(export, "write_preview", broken)
+    with pytest.raises(OSError, match="disk full"):
+        write_design(vault[0], tmp_path, workers=2)
+
+
 def test_round_trip_within_the_files_precision(vault):
     result, folder = vault
     back = read_design(folder)
