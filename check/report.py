@@ -228,15 +228,29 @@ def deviation_figure(check):
     return fig
 
 
-def write_check(check, folder) -> dict:
-    """Write inflate.json, inflated.ply, inflated.3dm and deviation.png into ``folder``; return the JSON document."""
+def write_check(check, folder, *, workers: int = 1) -> dict:
+    """Write inflate.json, inflated.ply, inflated.3dm and deviation.png into ``folder``; return the JSON document.
+
+    With ``workers`` of 2 or more the figure (matplotlib) and the other files are written side by side on
+    forked processes (:class:`airmat.forked.ForkedMap`, Linux); the same files."""
+    from airmat.forked import ForkedMap
+
+    folder = Path(folder)
+    doc = check_dict(check)
+    ForkedMap(lambda part: _write_part(part, check, doc, folder), ("figure", "rest"), min(int(workers), 2)).results()
+    return doc
+
+
+def _write_part(part: str, check, doc: dict, folder: Path) -> None:
+    """One of :func:`write_check`'s two groups of files: ``"figure"`` (deviation.png) or ``"rest"``."""
+    if part == "figure":
+        save_png(deviation_figure(check), folder / "deviation.png", dpi=110)
+        return
     import trimesh
 
     from airmat.design.design_io import document
     from airmat.design.export.rhino import write_3dm
 
-    folder = Path(folder)
-    doc = check_dict(check)
     atomic_write_text(folder / "inflate.json", dumps(doc, indent=2) + "\n")
     med = check.runs["median"]
     inf = med.inflation
@@ -246,10 +260,8 @@ def write_check(check, folder) -> dict:
     write_3dm(folder / "inflated.3dm", document(check.design), a.xyz, a.uv, a.faces,
               shapes={k: r.deviation.aligned for k, r in check.runs.items()},
               band=None if check.monte_carlo is None else check.monte_carlo.per_vertex_q[1])
-    save_png(deviation_figure(check), folder / "deviation.png", dpi=110)
     if check.monte_carlo is not None:
         write_bands(check, folder / "inflated_bands.ply")
-    return doc
 
 
 def summary_text(doc: dict, out) -> str:

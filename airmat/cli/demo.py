@@ -180,7 +180,7 @@ def run(args) -> int:
         log.info("inflate: %g mm", args.resolution_mm)
         checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args),
                         known=refinement.known_runs if refinement else None)
-        write_check(checked, tmp / "inflate")
+        write_check(checked, tmp / "inflate", workers=workers)
         seconds["inflate"] = time.perf_counter() - t
         asbuilt = _as_built(args, tmp, out, result, checked, cal) if args.correct else None
         if asbuilt is not None:

@@ -114,7 +114,7 @@ def run(args) -> int:
             t = time.perf_counter()
             checked = check(result, resolution=args.resolution_mm * MM, workers=workers, scheduler=scheduler(args),
                             known=refinement.known_runs if refinement else None)
-            write_check(checked, tmp / name / "inflate")
+            write_check(checked, tmp / name / "inflate", workers=workers)
             seconds = {"design": t_design, **({"refine": t_refine} if args.refine else {}),
                        "inflate": time.perf_counter() - t}
             rows.append(table_row(result, checked, sum(seconds.values()), refinement))

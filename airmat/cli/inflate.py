@@ -86,7 +86,7 @@ def run(args) -> int:
     if mode == "linear":
         result = _with_linear_tolerance(design, result, args, workers)
     with staged(args.out) as tmp:
-        doc = write_check(result, tmp)
+        doc = write_check(result, tmp, workers=workers)
         write_report(tmp, check=result, title=f"airmat {getattr(args, 'command', 'check')}: {design.name}")
     print(summary_text(doc, args.out))
     if design.refine is None and len(design.pattern.strings):

@@ -124,3 +124,18 @@ def test_a_check_with_samples_puts_its_band_in_inflated_3dm_and_the_report(small
     html = report_html(check=res)
     assert html.count('Plotly.newPlot("check-band"') == 1 and 'id="monte-carlo-stats"' in html
     assert "<td>samples</td><td>6</td>" in html and 'id="monte-carlo-strings"' in html
+
+
+def test_two_processes_write_the_same_check_files(small, tmp_path):
+    """With workers the figure is drawn on a forked process beside the other files (Linux): the same bytes,
+    inflated_bands.ply included."""
+    from airmat.check.report import write_check
+
+    res = check(_spread(small), resolution=0.05, envelope=False, samples=2, seed=5)
+    one, two = tmp_path / "one", tmp_path / "two"
+    one.mkdir(), two.mkdir()
+    assert write_check(res, one) == write_check(res, two, workers=2)
+    names = sorted(p.name for p in one.iterdir())
+    assert names == sorted(p.name for p in two.iterdir()) and "deviation.png" in names and "inflated_bands.ply" in names
+    for name in names:
+        assert (one / name).read_bytes() == (two / name).read_bytes(), name
