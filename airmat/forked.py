@@ -93,10 +93,6 @@ class _Counter:
             self._next.value = i + 1
         return i
 
-    def claimed(self) -> int:
-        with self._next.get_lock():
-            return min(self._next.value, self._n)
-
 
 class ForkedMap:
     """``[fn(item) for item in items]``, started on up to ``workers`` forked children now.

@@ -237,7 +237,7 @@ def write_check(check, folder, *, workers: int = 1) -> dict:
 
     folder = Path(folder)
     doc = check_dict(check)
-    ForkedMap(lambda part: _write_part(part, check, doc, folder), ("figure", "rest"), min(int(workers), 2)).results()
+    ForkedMap(lambda part: _write_part(part, check, doc, folder), ("figure", "rest"), workers).results()
     return doc
 
 

@@ -141,8 +141,7 @@ def write_design(result: DesignResult, folder, *, papers: tuple = (), workers: i
 
     folder = Path(folder)
     doc = document(result)
-    ForkedMap(lambda part: _write_part(part, result, doc, folder, papers), ("preview", "rest"),
-              min(int(workers), 2)).results()
+    ForkedMap(lambda part: _write_part(part, result, doc, folder, papers), ("preview", "rest"), workers).results()
     return doc
 
 

@@ -27,7 +27,7 @@ import numpy as np
 from airmat.design.closest_point import MeshProjector
 from airmat.forked import ForkedMap, can_fork
 from airmat.progress import progress
-from airmat.geometry.topology import boundary_vertices, flat_vertex_areas
+from airmat.geometry.topology import boundary_vertex_mask, flat_vertex_areas
 
 __all__ = ["FOLD_SIGMA_BAND", "FOLD_RATIOS", "FoldTrial", "FoldRoute", "fold_route", "start_trials",
            "fold_vertices", "needs_folds", "folds_likely", "total_curvature", "cap_curvature"]
@@ -161,11 +161,9 @@ def total_curvature(vertices, faces) -> float:
 
     vertices, faces = np.asarray(vertices, float), np.asarray(faces)
     defects = trimesh.Trimesh(vertices, faces, process=False).vertex_defects
-    inner = np.ones(len(vertices), bool)
-    inner[boundary_vertices(faces)] = False
     used = np.zeros(len(vertices), bool)
     used[faces.ravel()] = True
-    return float(defects[inner & used].sum())
+    return float(defects[used & ~boundary_vertex_mask(faces, len(vertices))].sum())
 
 
 def cap_curvature(sigma: float) -> float:
@@ -203,7 +201,13 @@ def start_trials(relax_with, *, k_a1: float, ratios=FOLD_RATIOS, workers: int = 
     step = max(1, int(workers))
     if step < 2 or not can_fork():
         return None
-    return ForkedMap(relax_with, [k_a1 * r for r in list(ratios)[:step]], step)
+    return _relax_batch(relax_with, k_a1, list(ratios)[:step])
+
+
+def _relax_batch(relax_with, k_a1: float, batch) -> ForkedMap:
+    """The relaxations with k_A1 × each factor of ``batch``, one forked process each (one at a time here when
+    the batch has one factor or nothing forks)."""
+    return ForkedMap(relax_with, [k_a1 * r for r in batch], len(batch))
 
 
 def fold_vertices(kappa, kappa_max: float) -> np.ndarray:
@@ -264,7 +268,7 @@ def fold_route(approx, relax_with, *, k_a1: float, ratios=FOLD_RATIOS, sigma_ban
     for first in range(0, len(ratios), step):
         batch = ratios[first:first + step]
         log.info("fold route: relaxing with k_A1 × %s", ", ".join(f"{r:g}" for r in batch))
-        runs = started if first == 0 and started is not None else ForkedMap(relax_with, [k_a1 * r for r in batch], step)
+        runs = started if first == 0 and started is not None else _relax_batch(relax_with, k_a1, batch)
         if runs.forked:         # the relaxations' own bars are off in the forked processes: count the trials
             with progress(total=len(batch), desc=f"fold route (k_A1 × {', '.join(f'{r:g}' for r in batch)})",
                           unit="trial") as bar:

@@ -19,7 +19,10 @@ from airmat.design.fold_route import (FOLD_SIGMA_BAND, cap_curvature, fold_route
 from airmat.design.mattress import Mattress, triangulate_mattress
 from airmat.design.pipeline import DesignParams, design
 from airmat.design.presets import preset
+from airmat.forked import can_fork
 from airmat.report.design import design_part
+
+forks = pytest.mark.skipif(not can_fork(), reason="forked processes on Linux only")
 
 
 @pytest.fixture(scope="module")
@@ -174,8 +177,6 @@ def test_trials_side_by_side_choose_as_one_at_a_time():
     within the band, and a later trial of the same batch is dropped."""
     import os
 
-    from airmat.forked import can_fork
-
     def relax_with(table):
         def relax(k):
             s = _stand_in(*table[k])
@@ -220,19 +221,27 @@ def test_folds_are_forecast_for_the_dome_preset_only():
         assert not folds_likely(preset(name)[0]), name
 
 
-@pytest.mark.skipif(not __import__("airmat.forked", fromlist=["can_fork"]).can_fork(), reason="forks on Linux only")
-def test_the_first_trials_start_beside_the_plain_relaxation(dome, monkeypatch):
-    """Where folds are forecast, the route's first relaxations start before the plain one and the route takes
-    them: the same Ŝ, route and strings as one relaxation at a time."""
+@pytest.fixture
+def started_trials(monkeypatch):
+    """Every ForkedMap :func:`~airmat.design.fold_route.start_trials` returns to the designer, with its
+    children's pids."""
     import airmat.design.pipeline as pipeline
 
-    started = []
+    started, start = [], pipeline.start_trials
 
     def recording(*args, **kw):
-        m = pipeline_start(*args, **kw)
-        started.append(m)
+        m = start(*args, **kw)
+        started.append((m, [pid for pid, _ in m._children]))
         return m
 
+    monkeypatch.setattr(pipeline, "start_trials", recording)
+    return started
+
+
+@forks
+def test_the_first_trials_start_beside_the_plain_relaxation(dome, started_trials, monkeypatch):
+    """Where folds are forecast, the route's first relaxations start before the plain one and the route takes
+    them: the same Ŝ, route and strings as one relaxation at a time."""
     import airmat.design.fold_route as route_module
 
     made = []
@@ -242,42 +251,33 @@ def test_the_first_trials_start_beside_the_plain_relaxation(dome, monkeypatch):
             made.append(args[1])
             super().__init__(*args, **kw)
 
-    pipeline_start = pipeline.start_trials
-    monkeypatch.setattr(pipeline, "start_trials", recording)
     monkeypatch.setattr(route_module, "ForkedMap", Counted)
     target, mattress = preset("dome")
     two = design(target, mattress, params=DesignParams(spacing=0.04), progress=False, workers=2)
-    assert len(started) == 1 and started[0].forked == 2 and not started[0]._children    # collected, reaped
-    assert dome.fold_route.chosen <= 2 and made == [started[0]._items]      # the first batch answered: no other
+    ((early, pids),) = started_trials
+    assert len(pids) == 2 and not early._children                           # collected, reaped
+    assert dome.fold_route.chosen <= 2 and made == [early._items]          # the first batch answered: no other
     assert two.fold_route.trials == dome.fold_route.trials and two.fold_route.chosen == dome.fold_route.chosen
     assert np.array_equal(two.approx.xyz, dome.approx.xyz)
     assert [s.l_median for s in two.pattern.strings] == [s.l_median for s in dome.pattern.strings]
 
 
-@pytest.mark.skipif(not __import__("airmat.forked", fromlist=["can_fork"]).can_fork(), reason="forks on Linux only")
-def test_trials_started_for_nothing_are_given_up(monkeypatch):
+@forks
+def test_trials_started_for_nothing_are_given_up(started_trials, monkeypatch):
     """A forecast of folds that the plain Ŝ does not bear out: the started relaxations are killed, the design is
     the one of one process."""
     import os
 
     import airmat.design.pipeline as pipeline
 
-    started = []
-
-    def recording(*args, **kw):
-        m = pipeline_start(*args, **kw)
-        started.append((m, [pid for pid, _ in m._children]))
-        return m
-
-    pipeline_start = pipeline.start_trials
-    monkeypatch.setattr(pipeline, "start_trials", recording)
     monkeypatch.setattr(pipeline, "folds_likely", lambda target: True)
     target, mattress = preset("vault1")
     params = DesignParams(spacing=0.04)
     two = design(target, mattress, params=params, progress=False, workers=2)
     one = design(target, mattress, params=params, progress=False, workers=1)
-    assert len(started) == 1 and len(started[0][1]) == 2 and two.fold_route is None
-    for pid in started[0][1]:
+    ((_, pids),) = started_trials
+    assert len(pids) == 2 and two.fold_route is None
+    for pid in pids:
         with pytest.raises(ChildProcessError):
             os.waitpid(pid, os.WNOHANG)
     assert np.array_equal(two.approx.xyz, one.approx.xyz)
