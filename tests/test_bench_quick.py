@@ -40,6 +40,7 @@ HEADERS = {
     "bench_refine.py": ["open loop RMS mm (% diag)", "refined RMS mm (% diag)", "ratio"],
     "bench_specimen.py": ["κ₁ polygon (1/m)", "Equation 3 (1/m)", "side / L*"],
     "bench_tolerance.py": ["| preset | jobs | mesh (mm) | strings | K |", "validation: spread error, scale s / per-sample error",
+                           "seeds within 0.05 of MC",
                            "95 % band: median rel. diff"],
     "bench_ua_hessian.py": ["projected: design (s)", "exact after", "Newton iterations", "refined % diag"],
     "bench_ua_solver.py": ["SuperLU: design (s)", "CHOLMOD: design (s)", "largest Ŝ difference (mm)"],
