@@ -142,7 +142,9 @@ class Target(Summarized):
         return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
 
 
-def _check_mesh(v: np.ndarray, f: np.ndarray) -> None:
+def _check_mesh(v: np.ndarray, f: np.ndarray, topology: bool = True) -> None:
+    """Refuse what is not a triangle mesh with a surface; with ``topology`` also faces that name a vertex
+    twice and edges shared by more than two faces."""
     if v.ndim != 2 or v.shape[1] != 3:
         raise InputError(f"target vertices have shape {v.shape}, expected (n, 3)")
     if f.size == 0 or len(v) == 0:
@@ -157,11 +159,40 @@ def _check_mesh(v: np.ndarray, f: np.ndarray) -> None:
         raise InputError(f"{int(bad.sum())} of {len(v)} vertices have NaN or infinite coordinates "
                          f"(first: vertex {int(np.flatnonzero(bad)[0])})", n_bad=int(bad.sum()))
     _check_area(v, f)
+    if not topology:
+        return
+    repeated = _repeats_a_vertex(f)
+    if repeated.any():
+        raise InputError(f"{int(repeated.sum())} of {len(f)} faces repeat a vertex (first: face "
+                         f"{int(np.flatnonzero(repeated)[0])}): they have no surface; drop them",
+                         n_repeated=int(repeated.sum()))
     _, counts = edge_counts(f)
     n_nm = int((counts > 2).sum())
     if n_nm:
         raise InputError(f"mesh has {n_nm} non-manifold edges (shared by more than two faces); "
                          "the target must be a single-sheeted surface", n_nonmanifold=n_nm)
+
+
+def _repeats_a_vertex(f: np.ndarray) -> np.ndarray:
+    """Faces (m,) bool that name one vertex twice: a segment or a point, no surface."""
+    return (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
+
+
+def _without_empty_faces(vertices: np.ndarray, faces: np.ndarray) -> tuple:
+    """``faces`` without those that repeat a vertex and without second copies of a face (any order or
+    winding), then ``vertices`` without those no face uses: (vertices, faces, faces dropped).
+
+    A modeller's export can hold such faces (a sliver whose corners merge, a face written twice); they
+    add no surface, but their edges would count as shared by more than two faces."""
+    keep = ~_repeats_a_vertex(faces)
+    _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
+    once = np.zeros(len(faces), bool)
+    once[first] = True
+    keep &= once
+    used = np.zeros(len(vertices), bool)
+    used[faces[keep].ravel()] = True
+    index = np.cumsum(used) - 1
+    return vertices[used], index[faces[keep]], int((~keep).sum())
 
 
 #: a target whose faces cover less than this fraction of its bounding diagonal squared has no surface
@@ -242,7 +273,8 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     Returns
     -------
     Target
-        Vertices in metres; coincident vertices (STL) are merged.
+        Vertices in metres; coincident vertices (STL) are merged, then faces that name a vertex twice
+        and second copies of a face are dropped (they hold no surface), with the vertices only they used.
 
     Raises
     ------
@@ -288,13 +320,16 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
                          "triangles); triangulate it first (e.g. Blender: Triangulate Faces)",
                          path=path, n_polygons=declared)
     try:
-        _check_mesh(vertices, faces)  # NaNs before merging, which would hide them
+        _check_mesh(vertices, faces, topology=False)  # NaNs before merging, which would hide them
         if _stored_float32(path):     # before merging too: the rounding merges vertices
             _check_float32_rounding(path, vertices, faces, units)
         mesh = trimesh.Trimesh(vertices, faces, process=False)
         mesh.merge_vertices()
-        target = Target(np.asarray(mesh.vertices) * UNITS[units], np.asarray(mesh.faces),
-                        name=name or path.stem, units=units)
+        merged, kept, dropped = _without_empty_faces(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        if dropped:
+            log.info("target %s: %d faces without surface dropped (a vertex named twice, or a face written twice)",
+                     path.name, dropped)
+        target = Target(merged * UNITS[units], kept, name=name or path.stem, units=units)
         if mattress is not None:
             check_scale(target, mattress)
     except InputError as err:

@@ -119,6 +119,29 @@ def test_non_manifold_edges_are_counted(tmp_path):
     assert err.value.data["n_nonmanifold"] == 1
 
 
+@pytest.mark.parametrize("ext", ["obj", "ply", "off"])
+def test_faces_without_surface_are_dropped_from_a_file(tmp_path, ext):
+    # a face naming a vertex twice (on two vertices only it uses), a face written twice, one written back to front:
+    # their edges would be shared by more than two faces; the file reads as the mesh without them
+    v, f = _grid_mesh()
+    n = len(v)
+    vx = np.vstack([v, [[2000.0, 0, 0], [2001.0, 0, 0]]])
+    fx = np.vstack([f, [[n, n, n + 1]], f[:1], f[1:2, ::-1]])
+    path = tmp_path / f"export.{ext}"
+    trimesh.Trimesh(vx, fx, process=False).export(path)
+    t = load_target(path)
+    assert len(t.faces) == len(f) and len(t.vertices) == n
+    np.testing.assert_allclose(np.sort(t.vertices[t.faces].reshape(-1, 9), axis=0),
+                               np.sort(1e-3 * v[f].reshape(-1, 9), axis=0))
+
+
+def test_arrays_with_a_face_naming_a_vertex_twice_are_refused_saying_so():
+    v, f = _grid_mesh()
+    with pytest.raises(InputError, match="1 of 51 faces repeat a vertex") as err:
+        Target(1e-3 * v, np.vstack([f, [[0, 0, 1]]]))
+    assert err.value.data["n_repeated"] == 1
+
+
 def test_units_slip_says_which_units(tmp_path):
     v, f = _grid_mesh()
     path = tmp_path / "in_metres.obj"
