@@ -32,7 +32,7 @@ samples in antithetic pairs, seed 1, which also give the model's mean shift). Co
   MC's median RMS rounded to 0.1 mm (where a probability is most sensitive), the linear one with the
   standard error of its sampled mean shift, the MC's with its binomial standard error; and the linear
   P's mean and standard deviation over the validation seeds 1..``--seeds`` (the mean shift is sampled),
-  and on how many of those seeds it lies within 0.05 of the Monte-Carlo's (issue 40's target);
+  and on how many of those seeds it lies within 0.05 of the Monte-Carlo's (the target);
 - the commit the Monte-Carlo was made at.
 
 The Monte-Carlo's per-sample results (each sample's aligned named face at Ŝ's vertices, its RMS and
@@ -65,7 +65,7 @@ from airmat.units import MM  # noqa: E402
 from designed_preset import designed_preset  # noqa: E402
 
 
-#: issue 40's target: the linear P(RMS <= T) within this of the Monte-Carlo's
+#: the target: the linear P(RMS <= T) within this of the Monte-Carlo's
 P_TARGET = 0.05
 
 #: the sources the Monte-Carlo's inflations and deviations depend on (beside the design's arrays)

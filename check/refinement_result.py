@@ -123,14 +123,14 @@ class Refinement(Summarized):
         of ``design`` at this resolution (``known=``) need not inflate again."""
         return tuple(k for k in (self.verification, self.open_loop_run) if k is not None)
 
-    def _to_target(self, dev) -> dict:
+    def _to_target(self) -> dict:
         """``deviation_after_to_target``: the refined face's distance to the user's target S, when the design keeps S."""
         a = self.design.approx
         if a.target is None:
             return {}
         diag = float(np.linalg.norm(np.ptp(a.xyz, axis=0)))
-        return {"deviation_after_to_target": dev(distance_to_target(self.deviation_after.aligned, a.target,
-                                                                    diagonal=diag))}
+        return {"deviation_after_to_target": distance_to_target(self.deviation_after.aligned, a.target,
+                                                                diagonal=diag).summary_mm()}
 
     def block(self) -> dict:
         """The ``refine`` block of design.json (mm, %)."""
@@ -144,7 +144,7 @@ class Refinement(Summarized):
                 "defect_corrections": len(self.corrections), "alpha": float(self.alpha),
                 "surface": self.surface, "lengths_before": self.lengths_before,
                 "deviation_before": dev(self.deviation_before),
-                "deviation_after": dev(self.deviation_after), **self._to_target(dev),
+                "deviation_after": dev(self.deviation_after), **self._to_target(),
                 "dropped": list(self.dropped),
                 "flagged": list(self.flagged), "message": self.message,
                 "reparametrization": None if self.reparametrization is None else {

@@ -93,7 +93,7 @@ def _dev_dict(dev) -> dict:
 def _run_dict(run) -> dict:
     inf, dev = run.inflation, run.deviation
     others = run.deviations or {}
-    to_target = {} if run.to_target is None else {"to_target": _dev_dict(run.to_target)}
+    to_target = {} if run.to_target is None else {"to_target": run.to_target.summary_mm()}
     return {"deviation": {**_dev_dict(dev), "surface": dev.surface,
                           "surfaces": {k: _dev_dict(v) for k, v in others.items()}, **to_target},
             "solver": {"converged": bool(inf.converged), "iterations": int(inf.n_iter),
@@ -125,11 +125,13 @@ def check_dict(check) -> dict:
            **_run_dict(med)}
     approx = getattr(check, "approx_to_target", None)
     doc["to_target"] = TO_TARGET_NOTE if med.to_target is None else {
-        **_dev_dict(med.to_target), "surface": check.surface,
-        **({} if approx is None else {"approx": _dev_dict(approx)}),
+        **med.to_target.summary_mm(), "surface": check.surface,
+        **({} if approx is None else {"approx": approx.summary_mm()}),
         "note": "distance of the same aligned face to the closest points of the user's target S (its rim "
-                "included), % of approx_surface's diagonal; approx: S-hat's own distance to S; deviation is to "
-                "S-hat, the near-developable surface the mattress can make"}
+                "included), % of approx_surface's diagonal; over_target: the same over the points that lie over "
+                "S, not beyond its rim (a target smaller than the mattress, a hole in it), and their share; "
+                "approx: S-hat's own distance to S; deviation is to S-hat, the near-developable surface the "
+                "mattress can make"}
     doc["envelope"] = {k: _run_dict(r)["deviation"] for k, r in check.runs.items() if k != "median"}
     doc["envelope_solver"] = {k: _run_dict(r)["solver"] for k, r in check.runs.items() if k != "median"}
     doc["dashes"] = [{"id": s.dash.id, "side": s.side, "kappa_target_per_m": round(float(s.kappa), 4),
@@ -280,6 +282,12 @@ def summary_text(doc: dict, out) -> str:
         own = f"; Ŝ itself RMS {tt['approx']['rms_mm']:.1f} mm from S" if "approx" in tt else ""
         lines.append(f"  distance to the target S (same face): RMS {tt['rms_mm']:.1f} mm "
                      f"({tt['rms_pct_diag']:.2f}% of the diagonal), max {tt['max_mm']:.1f} mm{own}")
+        over = tt.get("over_target")
+        if over is not None and over["share"] < 1.0:
+            own_over = tt.get("approx", {}).get("over_target")
+            lines.append(f"    over S ({100 * over['share']:.0f}% of the face; the rest lies beyond its rim): RMS "
+                         f"{over['rms_mm']:.1f} mm ({over['rms_pct_diag']:.2f}%), max {over['max_mm']:.1f} mm"
+                         + (f"; Ŝ itself RMS {own_over['rms_mm']:.1f} mm there" if own_over else ""))
     ref = {k: v for k, v in dev.get("surfaces", {}).items() if k != dev.get("surface")}
     if ref:
         lines.append("  other faces (reference): " + ", ".join(

@@ -27,7 +27,7 @@ from trimesh.triangles import points_to_barycentric
 from airmat.cores import idle_cores
 from airmat.geometry.topology import boundary_face_flags
 
-__all__ = ["ClosestPoints", "MeshProjector"]
+__all__ = ["beyond_rim", "BEYOND_RIM", "ClosestPoints", "MeshProjector"]
 
 #: a closest point nearer than this (in mean edge lengths of the mesh) to a rim edge or rim vertex
 #: of its triangle is on the rim. Generous on purpose: open3d finds the closest triangle in
@@ -212,3 +212,31 @@ class MeshProjector:
                                np.asarray(directions, float)], axis=1).astype(np.float32)
         ans = self._scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=self.threads)
         return ans["t_hit"].numpy().astype(float)
+
+
+#: a point whose closest point on a target lies on its rim is beyond the rim when it is offset across the target's
+#: normal there by more than this share of the diagonal the distances are judged against (1 mm on 1 m)
+BEYOND_RIM = 1e-3
+
+
+def beyond_rim(points: np.ndarray, near: ClosestPoints, tolerance: float) -> np.ndarray:
+    """Which ``points`` lie beyond the mesh's rim, shape (k,) bool: their closest point ``near`` is on the rim
+    and they are offset across the mesh's normal there by more than ``tolerance`` (m).
+
+    Level with the rim, or straight above or below it, a point is not beyond it. Where a target is smaller
+    than the mattress, or has a hole, the points beyond its rim are where it says nothing.
+
+    Parameters
+    ----------
+    points : ndarray of shape (k, 3)
+        Query points (m).
+    near : ClosestPoints
+        :meth:`MeshProjector.closest` of ``points``.
+    tolerance : float
+        Offset across the normal (m) below which a point at the rim counts as level with it.
+    """
+    points = np.asarray(points, dtype=float)
+    along = np.einsum("ij,ij->i", points - near.points, near.normal)
+    aside = np.sqrt(np.maximum(near.distance ** 2 - along ** 2, 0.0))
+    return np.asarray(near.on_rim, bool) & (aside > tolerance)
+

@@ -201,8 +201,14 @@ def curvature_figure(check) -> dict:
 
 
 def _to_s(d) -> str:
-    """A run's distance to the target S as its table cell: RMS in mm (% of Ŝ's diagonal)."""
-    return "–" if d is None else f"{d.rms * M_TO_MM:.1f} ({d.rms_pct_diag:.2f})"
+    """A run's distance to the target S as its table cell: RMS in mm (% of Ŝ's diagonal), and over S alone when
+    part of the face lies beyond S's rim."""
+    if d is None:
+        return "–"
+    cell = f"{d.rms * M_TO_MM:.1f} ({d.rms_pct_diag:.2f})"
+    if d.over is not None and d.over.any() and d.over_share < 1.0:
+        cell += f"; over S ({100 * d.over_share:.0f} %): {d.over_rms * M_TO_MM:.1f}"
+    return cell
 
 
 def _runs_table(check) -> str:

@@ -95,6 +95,10 @@ def _to_target(check) -> list:
             f"({to_s.rms_pct_diag:.2f} % of the diagonal)")
     if own is not None:
         fact += f"; Ŝ itself is {own.rms * M_TO_MM:.1f} mm from S ({own.rms_pct_diag:.2f} %)"
+    if to_s.over is not None and to_s.over.any() and to_s.over_share < 1.0:
+        fact += (f". Over S, {100 * to_s.over_share:.0f} % of the face (the rest lies beyond S's rim, where S says "
+                 f"nothing), it is {to_s.over_rms * M_TO_MM:.1f} mm RMS from S "
+                 f"({100 * to_s.over_rms / to_s.diagonal:.2f} %)")
     return [fact + "."]
 
 

@@ -151,3 +151,39 @@ def test_turning_sees_a_bend_concentrated_at_the_string_ends_where_the_circle_do
     np.testing.assert_allclose(top, corner / (0.3 + 0.5 * D * corner), rtol=2e-3)
     # the circle sees the straight side, plus a little of the corners' rounding by the offset (12 %)
     assert np.all(np.abs(realized_curvature(inf, A, B, polys, "top", method="circle")) < 0.15 * top)
+
+
+def test_distance_to_target_tells_the_points_over_s_from_those_beyond_its_rim():
+    """A 1 m square S with a 0.4 m square hole: points above its inside, level with or above its rim are over S;
+    points off its outer edge or over the hole are beyond the rim, and their distance is to the rim."""
+    import trimesh
+
+    from airmat.check.compare import distance_to_target
+
+    s = np.linspace(0.0, 1.0, 11)
+    x, y = np.meshgrid(s, s)
+    v = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    i = np.arange(121).reshape(11, 11)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, 1:].ravel(), i[1:, :-1].ravel()
+    f = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    centre = v[f].mean(axis=1)
+    hole = (np.abs(centre[:, 0] - 0.5) < 0.2) & (np.abs(centre[:, 1] - 0.5) < 0.2)
+    square = trimesh.Trimesh(v, f[~hole], process=False)
+    points = np.array([[0.15, 0.15, 0.02],     # over S, 20 mm above it
+                       [0.0, 0.5, 0.03],       # above the outer rim: over S, 30 mm
+                       [-0.1, 0.5, 0.0],       # level with S, 100 mm beyond its outer rim
+                       [0.5, 0.5, 0.0],        # in the hole's middle: 200 mm from its rim
+                       [0.9, 0.9, -0.01]])     # over S, 10 mm below it
+    t = distance_to_target(points, square, diagonal=1.0)
+    np.testing.assert_allclose(t.per_vertex, [0.02, 0.03, 0.1, 0.2, 0.01], atol=1e-9)
+    np.testing.assert_array_equal(t.over, [True, True, False, False, True])
+    assert t.over_share == pytest.approx(0.6)
+    assert t.over_rms == pytest.approx(np.sqrt((0.02 ** 2 + 0.03 ** 2 + 0.01 ** 2) / 3))
+    assert t.over_max == pytest.approx(0.03) and t.max == pytest.approx(0.2)
+    doc = t.summary_mm()
+    assert doc["rms_mm"] == pytest.approx(1e3 * t.rms, abs=1e-3)
+    assert doc["over_target"] == {"share": 0.6, "rms_mm": pytest.approx(1e3 * t.over_rms, abs=1e-3),
+                                  "max_mm": 30.0, "rms_pct_diag": pytest.approx(100 * t.over_rms, abs=1e-4)}
+    # a point set wholly over S: share 1, the same RMS as the whole
+    t2 = distance_to_target(points[[0, 4]], square, diagonal=1.0)
+    assert t2.over_share == 1.0 and t2.over_rms == pytest.approx(t2.rms)

@@ -130,6 +130,9 @@ def test_the_target_round_trips_to_float32_mm_byte_stable(vault, tmp_path):
     for key in ("rms_mm", "max_mm"):      # rounded to 0.001 mm in the file; S and Ŝ moved by float32 rounding
         assert again[key] == pytest.approx(to_s[key], abs=1e-3 + 1e3 * (2 * _float32_mm_error(s.vertices)
                                                                         + FLOAT32_SLACK))
+    # over S: vault1's S covers the whole mattress, so every vertex of Ŝ lies over it
+    over = to_s["over_target"]
+    assert over["share"] == 1.0 and over["rms_mm"] == to_s["rms_mm"] and over["max_mm"] == to_s["max_mm"]
     write_design(result, tmp_path / "again")
     assert (tmp_path / "again" / "target.ply").read_bytes() == (folder / "target.ply").read_bytes()
 

@@ -220,3 +220,45 @@ def test_the_distance_to_s_stands_beside_the_deviation_from_s_hat(run_objects):
                                   runs={k: dataclasses.replace(r, to_target=None) for k, r in checked.runs.items()})
     html = report_html(check=without)
     assert "to S: RMS mm (% diag)" not in table(html, "check-runs")[0] and "target S" not in _verdict(html)
+
+
+def test_where_part_of_the_face_lies_beyond_s_its_distance_over_s_is_given_too(run_objects):
+    """S cut to its half: the faces beyond its new rim are measured to that rim, so inflate.json, the text, the
+    runs' table and the verdict also give the distance over S alone, with its share of the face."""
+    import trimesh
+
+    from airmat.check.compare import distance_to_target
+    from airmat.check.report import summary_text
+    from airmat.design.target import Target
+
+    _, _, checked = run_objects
+    s = checked.design.approx.target
+    half = trimesh.Trimesh(s.vertices, s.faces, process=False)
+    keep = half.triangles_center[:, 0] < np.median(half.triangles_center[:, 0])
+    half = half.submesh([np.flatnonzero(keep)], append=True)
+    cut = Target(half.vertices, half.faces, name="half")
+    a = checked.design.approx
+    diag = float(np.linalg.norm(np.ptp(a.xyz, axis=0)))
+    runs = {k: dataclasses.replace(r, to_target=distance_to_target(r.deviation.aligned, cut, diagonal=diag))
+            for k, r in checked.runs.items()}
+    halved = dataclasses.replace(checked, runs=runs, approx_to_target=distance_to_target(a.xyz, cut, diagonal=diag))
+    med = runs["median"].to_target
+    assert 0.3 < med.over_share < 0.7 and med.over_rms < med.rms       # the far half is measured to the cut
+    tt = check_dict(halved)["to_target"]
+    over = tt["over_target"]
+    assert over["share"] == pytest.approx(med.over_share, abs=1e-4)
+    assert over["rms_mm"] == pytest.approx(1e3 * med.over_rms, abs=1e-3)
+    assert over["rms_pct_diag"] == pytest.approx(100 * med.over_rms / diag, abs=1e-4)
+    assert tt["approx"]["over_target"]["rms_mm"] < over["rms_mm"]
+    text = summary_text(check_dict(halved), "out")
+    assert (f"over S ({100 * over['share']:.0f}% of the face; the rest lies beyond its rim): RMS "
+            f"{over['rms_mm']:.1f} mm ({over['rms_pct_diag']:.2f}%)") in text
+    html = report_html(check=halved)
+    rows = table(html, "check-runs")
+    col = rows[0].index("to S: RMS mm (% diag)")
+    cell = {row[0]: row[col] for row in rows[1:]}["median"]
+    assert cell.endswith(f"; over S ({100 * over['share']:.0f} %): {over['rms_mm']:.1f}")
+    got = re.search(r"Over S, (\d+) % of the face \(the rest lies beyond S's rim, where S says nothing\), it is "
+                    r"(\d+\.\d) mm RMS from S \((\d+\.\d\d) %\)\.", _verdict(html))
+    assert got and int(got.group(1)) == round(100 * over["share"])
+    assert float(got.group(2)) == pytest.approx(over["rms_mm"], abs=0.051)
