@@ -1,7 +1,8 @@
-"""Target surfaces S: loading (OBJ, PLY, STL, OFF) and validation.
+"""Target surfaces S: loading (OBJ, PLY, STL, OFF, and Rhino's 3DM through
+:mod:`airmat.design.target_3dm`) and validation.
 
 A target is a triangle mesh in metres. Files are in millimetres unless told
-otherwise. Every problem a user can cause raises
+otherwise (a .3dm file says its own units). Every problem a user can cause raises
 :class:`airmat.errors.InputError` naming the file: missing or unreadable
 file, empty mesh, non-triangle faces, non-manifold edges, NaN/inf
 coordinates, several separate sheets or a closed solid
@@ -11,7 +12,8 @@ coordinates, several separate sheets or a closed solid
 Non-triangle faces are refused, not triangulated: a quad can be split
 along either diagonal and the two choices are different surfaces, so the
 designer asks for the triangulation the user means (any modeller exports
-one: e.g. Blender's "Triangulate Faces").
+one: e.g. Blender's "Triangulate Faces"). A .3dm file's quads are split where
+they are flat enough for the choice not to matter (:mod:`airmat.design.target_3dm`).
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ __all__ = ["Target", "load_target", "check_scale", "FORMATS", "UNITS"]
 
 log = logging.getLogger(__name__)
 
-FORMATS = ("obj", "ply", "stl", "off")
+FORMATS = ("obj", "ply", "stl", "off", "3dm")
 #: metres per file unit
 UNITS = {**SCAN_UNITS, "cm": 0.01}
 #: target bounding diagonal / mattress diagonal outside this range is a units slip
@@ -256,14 +258,14 @@ def _declared_polygons(path: Path, mesh) -> int | None:
 
 
 def load_target(path, *, units: str = "mm", name: str | None = None, mattress=None) -> Target:
-    """Read a target surface from an OBJ, PLY, STL or OFF file.
+    """Read a target surface from an OBJ, PLY, STL, OFF or Rhino 3DM file.
 
     Parameters
     ----------
     path : str or Path
         The mesh file; the format is taken from the extension.
-    units : {"mm", "m", "cm", "in"}, default "mm"
-        Units of the file's coordinates.
+    units : {"mm", "m", "cm", "in", "ft", "us-ft"}, default "mm"
+        Units of the file's coordinates (a .3dm file's own model units take precedence).
     name : str, optional
         Name of the target (default: the file's stem).
     mattress : airmat.design.mattress.Mattress, optional
@@ -299,6 +301,8 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
                          f"{', '.join('.' + f for f in FORMATS)}", path=path)
     if not path.is_file():
         raise InputError("target file not found", path=path)
+    if ext == "3dm":
+        return _load_3dm(path, units, name, mattress)
     check_complete(path)   # a file cut short would otherwise give part of the surface, or a cryptic error
     if ext == "obj":
         check_obj_indices(path)
@@ -323,9 +327,7 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         _check_mesh(vertices, faces, topology=False)  # NaNs before merging, which would hide them
         if _stored_float32(path):     # before merging too: the rounding merges vertices
             _check_float32_rounding(path, vertices, faces, units)
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
-        mesh.merge_vertices()
-        merged, kept, dropped = _without_empty_faces(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        merged, kept, dropped = _without_empty_faces(*_merged(vertices, faces))
         if dropped:
             log.info("target %s: %d faces without surface dropped (a vertex named twice, or a face written twice)",
                      path.name, dropped)
@@ -337,6 +339,35 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     log.info("target %s: %d vertices, %d faces, bounding diagonal %.0f mm",
              target.name, len(target.vertices), len(target.faces), 1e3 * target.bbox_diagonal)
     return target
+
+
+def _load_3dm(path: Path, units: str, name: str | None, mattress) -> Target:
+    """:func:`load_target` of a Rhino file (:mod:`airmat.design.target_3dm`): in its own model units (``units``
+    where it has none)."""
+    from airmat.design.target_3dm import read_3dm
+
+    try:
+        vertices, faces, own = read_3dm(path)
+        units = own or units
+        _check_mesh(vertices, faces, topology=False)
+        merged, kept, dropped = _without_empty_faces(*_merged(vertices, faces))
+        target = Target(merged * UNITS[units], kept, name=name or path.stem, units=units)
+        if mattress is not None:
+            check_scale(target, mattress)
+    except InputError as err:
+        raise err.with_path(path)
+    log.info("target %s: %d vertices, %d faces (%s), bounding diagonal %.0f mm", target.name, len(target.vertices),
+             len(target.faces), units, 1e3 * target.bbox_diagonal)
+    return target
+
+
+def _merged(vertices: np.ndarray, faces: np.ndarray) -> tuple:
+    """Coincident vertices merged (trimesh's ``merge_vertices``): (vertices, faces)."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    mesh.merge_vertices()
+    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
 
 
 def check_scale(target: Target, mattress) -> None:

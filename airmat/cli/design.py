@@ -22,7 +22,7 @@ def add_parser(sub, parents):
                        help="design the tension-string pattern for a target surface (paper §3)",
                        description=__doc__.splitlines()[0].split(": ", 1)[1])
     p.add_argument("target", nargs="?", metavar="TARGET",
-                   help="target surface mesh (OBJ, PLY, STL, OFF); or use --preset")
+                   help="target surface mesh (OBJ, PLY, STL, OFF) or Rhino file (3DM: its meshes and surfaces); or use --preset")
     p.add_argument("--preset", metavar="NAME", help="a built-in target: vault1, saddle, dome (830x740 mm), "
                                                     "vault2, roof (2600x1600 mm)")
     p.add_argument("--mattress", metavar="WxH", help="mattress size in mm, e.g. 830x740 "
@@ -30,7 +30,7 @@ def add_parser(sub, parents):
     p.add_argument("--thickness-mm", type=float, default=None,
                    help="inflated thickness d (mm, default: the preset's, else 70)")
     p.add_argument("--target-units", choices=("mm", "cm", "m", "in"), default="mm",
-                   help="unit of the TARGET file's coordinates (default mm)")
+                   help="unit of the TARGET file's coordinates (default mm; a 3DM file's own model units take precedence)")
     deprecated_alias(p, "--units", "--target-units")
     p.add_argument("--calibration", metavar="DIR", help="output folder of 'airmat calibrate'; without it the "
                                                          "paper's values are used and outputs say UNCALIBRATED")
