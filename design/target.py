@@ -4,16 +4,16 @@
 A target is a triangle mesh in metres. Files are in millimetres unless told
 otherwise (a .3dm file says its own units). Every problem a user can cause raises
 :class:`airmat.errors.InputError` naming the file: missing or unreadable
-file, empty mesh, non-triangle faces, non-manifold edges, NaN/inf
+file, empty mesh, warped quads and larger polygons, non-manifold edges, NaN/inf
 coordinates, several separate sheets or a closed solid
 (:mod:`airmat.design.target_pieces`), and a size that does not fit the mattress
 (a units slip).
 
-Non-triangle faces are refused, not triangulated: a quad can be split
-along either diagonal and the two choices are different surfaces, so the
-designer asks for the triangulation the user means (any modeller exports
-one: e.g. Blender's "Triangulate Faces"). A .3dm file's quads are split where
-they are flat enough for the choice not to matter (:mod:`airmat.design.target_3dm`).
+A quad can be split along either diagonal and where it is warped the two
+choices are different surfaces: quads flat enough for the choice not to matter
+are split, more warped ones and larger polygons refused, asking for the
+triangulation the user means (:mod:`airmat.design.target_polygons`; OBJ, PLY
+and 3DM; an OFF file's polygons are refused).
 """
 
 from __future__ import annotations
@@ -319,11 +319,14 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
                          path=path) from exc
     vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float)
     faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3), int)))
-    if declared is not None and 0 < declared < len(faces):
+    polygons = declared is not None and 0 < declared < len(faces)
+    if polygons and ext == "off":
         raise InputError(f"the mesh has non-triangle faces ({declared} polygons make {len(faces)} "
                          "triangles); triangulate it first (e.g. Blender: Triangulate Faces)",
                          path=path, n_polygons=declared)
     try:
+        if polygons:                  # the file's own polygons: flat quads split, others refused
+            vertices, faces = _file_polygons(path, ext, mesh, vertices)
         _check_mesh(vertices, faces, topology=False)  # NaNs before merging, which would hide them
         if _stored_float32(path):     # before merging too: the rounding merges vertices
             _check_float32_rounding(path, vertices, faces, units)
@@ -339,6 +342,21 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     log.info("target %s: %d vertices, %d faces, bounding diagonal %.0f mm",
              target.name, len(target.vertices), len(target.faces), 1e3 * target.bbox_diagonal)
     return target
+
+
+def _file_polygons(path: Path, ext: str, mesh, vertices: np.ndarray) -> tuple:
+    """The vertices and triangles of a file with quads (:mod:`airmat.design.target_polygons`): an OBJ's from its
+    own lines, a PLY's from the face list trimesh keeps."""
+    from airmat.design.target_polygons import obj_polygons, ply_polygons, triangulated
+
+    if ext == "obj":
+        vertices, polygons = obj_polygons(path.read_bytes())
+    else:
+        polygons = ply_polygons(mesh)
+        if polygons is None:
+            raise InputError("the mesh has non-triangle faces that could not be read as polygons; triangulate it "
+                             "first (e.g. Blender: Triangulate Faces)")
+    return vertices, triangulated(vertices, polygons)
 
 
 def _load_3dm(path: Path, units: str, name: str | None, mattress) -> Target:

@@ -6,11 +6,7 @@ cannot mesh a NURBS surface itself. So the target is every visible mesh object o
 with the render meshes of its visible surfaces, as one mesh; a surface saved without its render
 mesh is refused, saying how to save it. The file's model units are its units.
 
-Rhino's meshes hold quads. A quad can be split along either diagonal, and where it is warped the
-two choices are different surfaces (:mod:`airmat.design.target` refuses the polygons of other
-formats for that reason); a render mesh's quads are flat to within a small fraction of their size.
-So each quad whose fourth corner lies within :data:`QUAD_WARP` of its diagonal from the plane of
-the other three is split along its shorter diagonal, and a file with a more warped quad is refused.
+Rhino's meshes hold quads, split as every format's are (:func:`airmat.design.target_polygons.split_quads`).
 
 rhino3dm hands vertices and faces out one by one (no array view): reading a mesh costs about 5 µs a
 vertex in Python.
@@ -20,70 +16,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from airmat.design.target_polygons import split_quads
 from airmat.errors import InputError
 
-__all__ = ["read_3dm", "split_quads", "QUAD_WARP", "UNIT_NAMES"]
-
-#: a quad is split when its fourth corner lies within this fraction of its longer diagonal from the plane
-#: of the other three
-QUAD_WARP = 0.01
+__all__ = ["read_3dm", "UNIT_NAMES"]
 
 #: rhino3dm's model unit systems that airmat names (:data:`airmat.design.target.UNITS`)
 UNIT_NAMES = {"Millimeters": "mm", "Centimeters": "cm", "Meters": "m", "Inches": "in", "Feet": "ft"}
-
-
-def split_quads(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Rhino's faces (m, 4) (a triangle repeats its third corner) as triangles (m', 3).
-
-    Each quad is split along its shorter diagonal.
-
-    Parameters
-    ----------
-    vertices : ndarray of shape (n, 3)
-    faces : ndarray of shape (m, 4) of int
-
-    Returns
-    -------
-    ndarray of shape (m', 3) of int
-        The triangles, then the halves of the quads.
-
-    Raises
-    ------
-    airmat.errors.InputError
-        A quad whose fourth corner lies more than :data:`QUAD_WARP` of its longer diagonal from the
-        plane of the other three (``n_warped``, ``warp``: the largest such ratio).
-
-    Examples
-    --------
-    >>> v = np.array([[0.0, 0, 0], [1, 0, 0], [1, 2, 0], [0, 1, 0], [2, 0, 0]])
-    >>> split_quads(v, np.array([[0, 1, 2, 3], [1, 4, 2, 2]])).tolist()      # diagonal 0-2 is the longer
-    [[1, 4, 2], [0, 1, 3], [1, 2, 3]]
-    """
-    f = np.asarray(faces, np.int64)
-    v = np.asarray(vertices, float)
-    quad = f[:, 2] != f[:, 3]
-    tri, q = f[~quad, :3], f[quad]
-    if not len(q):
-        return tri
-    p = v[q]
-    d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
-    d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    size = np.linalg.norm(n, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        warp = np.abs(np.einsum("ij,ij->i", p[:, 3] - p[:, 0], n)) / size / np.maximum(d02, d13)
-    warp = np.where(size > 0, warp, 0.0)
-    bad = warp > QUAD_WARP
-    if bad.any():
-        raise InputError(f"{int(bad.sum())} of {len(q)} quads are warped (a corner up to {100 * warp.max():.1g} % of "
-                         "the quad's diagonal off the plane of the other three), so either diagonal makes another "
-                         "surface: mesh it finer (_Mesh) or triangulate it (_TriangulateMesh) and save again",
-                         n_warped=int(bad.sum()), warp=float(warp.max()))
-    short02 = d02 <= d13
-    halves = np.where(short02[:, None, None],
-                      np.stack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]], axis=1),
-                      np.stack([q[:, [0, 1, 3]], q[:, [1, 2, 3]]], axis=1))
-    return np.concatenate([tri, halves.reshape(-1, 3)])
 
 
 def _mesh_arrays(mesh) -> tuple:

@@ -5,7 +5,7 @@ import pytest
 
 from airmat.design.mattress import Mattress
 from airmat.design.target import load_target
-from airmat.design.target_3dm import QUAD_WARP, split_quads
+from airmat.design.target_polygons import QUAD_WARP, split_quads
 from airmat.errors import InputError
 
 rhino3dm = pytest.importorskip("rhino3dm")

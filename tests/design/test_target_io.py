@@ -91,13 +91,50 @@ QUADS = {
 }
 
 
-@pytest.mark.parametrize("ext", sorted(QUADS))
-def test_non_triangle_faces_are_refused(tmp_path, ext):
-    path = tmp_path / f"quads.{ext}"
-    path.write_text(QUADS[ext])
+def test_an_off_files_polygons_are_refused(tmp_path):
+    path = tmp_path / "quads.off"
+    path.write_text(QUADS["off"])
     with pytest.raises(InputError, match="non-triangle faces") as err:
         load_target(path)
     assert err.value.data["n_polygons"] == 2
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply"])
+def test_flat_quads_are_split_along_their_shorter_diagonal(tmp_path, ext):
+    path = tmp_path / f"quads.{ext}"
+    path.write_text(QUADS[ext])
+    t = load_target(path)
+    assert len(t.faces) == 4 and len(t.vertices) == 6
+    p = t.vertices[t.faces]
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    assert 0.5 * np.linalg.norm(cross, axis=1).sum() == pytest.approx(2.0)       # two 1 m squares
+    assert np.all(cross[:, 2] > 0)                                                # the quads' winding kept
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply"])
+def test_a_warped_quad_or_a_pentagon_is_refused_saying_so(tmp_path, ext):
+    corner = {"obj": "v 0 1000 0\n", "ply": "\n0 1000 0\n"}[ext]      # the first quad's alone
+    warped = QUADS[ext].replace(corner, corner.replace("1000 0", "1000 100"), 1)   # 100 mm off the others' plane
+    path = tmp_path / f"warped.{ext}"
+    path.write_text(warped)
+    with pytest.raises(InputError, match="1 of 2 quads are warped") as err:
+        load_target(path)
+    assert err.value.data["warp"] == pytest.approx(100 / np.hypot(1000, np.hypot(1000, 100)), rel=1e-3)
+    assert err.value.path == str(path)
+    penta = tmp_path / "penta.obj"
+    penta.write_text("v 0 0 0\nv 1000 0 0\nv 1500 500 0\nv 1000 1000 0\nv 0 1000 0\nf 1 2 3 4 5\n")
+    with pytest.raises(InputError, match="1 faces of 5 corners"):
+        load_target(penta)
+
+
+def test_an_obj_with_texture_indices_and_relative_corners_reads_its_own_vertices(tmp_path):
+    path = tmp_path / "textured.obj"
+    path.write_text("v 0 0 0\nv 1000 0 0\nv 1000 1000 0\nv 0 1000 0\nv 2000 0 0\nv 2000 1000 0\n"
+                    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
+                    "f -6/1/1 -5/2/1 -4/3/1 -3/4/1\nf 2/2/1 5/1/1 6/4/1 3/3/1\n")
+    t = load_target(path)
+    assert len(t.faces) == 4 and len(t.vertices) == 6
+    np.testing.assert_allclose(np.ptp(t.vertices, axis=0), [2.0, 1.0, 0.0])
 
 
 def test_nan_vertices(tmp_path):
