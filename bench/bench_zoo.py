@@ -19,7 +19,8 @@ or refused); "constructible": the designer's verdict (``design.approx.report.con
 the paper's σ criterion); "open loop" and "refined": the named face's RMS deviation from Ŝ in %
 of Ŝ's diagonal, at the open-loop lengths (Equation 3) and the refined ones; "to S": the refined
 face's distance to the user's target S (RMS mm and % of Ŝ's diagonal,
-:func:`airmat.check.compare.distance_to_target`); "Ŝ to S": Ŝ's own RMS distance to S (mm; the
+:func:`airmat.check.compare.distance_to_target`; where part of the face lies beyond S's rim, also over S
+alone, with the share of the face over it); "Ŝ to S": Ŝ's own RMS distance to S (mm; the
 relaxation's compromise: |to S − Ŝ to S| ≤ the deviation from Ŝ, point by point); "converged":
 the U_A relaxation, the refinement and the inflation; "exit": the code ``airmat design --refine``
 then ``airmat inflate`` would give (0, 3 not converged, 2 refused, 1 diverged); seconds for the whole
@@ -124,9 +125,11 @@ def format_row(row: dict) -> str:
         return (head + f" {'yes' if row['constructible'] else 'no'} | {row['folds'] or '–'} | – | – | – | – | – | – "
                 f"| {row['exit']} ({why}) | {row['design_seconds']:.1f} | – | {row['seconds']:.1f} |")
     ts = row["to_s"]
+    over = (f"; over S ({100 * ts.over_share:.0f} %): {ts.over_rms / MM:.1f} ({100 * ts.over_rms / ts.diagonal:.2f})"
+            if ts.over is not None and ts.over.any() and ts.over_share < 1.0 else "")
     return (head + f" {'yes' if row['constructible'] else 'no'} | {row['folds'] or '–'} "
             f"| {row['open_loop'].rms_pct_diag:.2f} "
-            f"| {row['refined'].rms_pct_diag:.2f} | {ts.rms / MM:.1f} ({ts.rms_pct_diag:.2f}) "
+            f"| {row['refined'].rms_pct_diag:.2f} | {ts.rms / MM:.1f} ({ts.rms_pct_diag:.2f}){over} "
             f"| {row['approx_to_s'].rms / MM:.1f} | {row['strings']} | {'yes' if row['converged'] else 'no'} "
             f"| {row['exit']} | {row['design_seconds']:.1f} | {row['refine_ratio']:.1f}× | {row['seconds']:.1f} |")
 
