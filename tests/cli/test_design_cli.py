@@ -125,7 +125,7 @@ def _mesh_file(tmp_path, name, text):
 
 BAD_MESHES = {
     "empty.obj": "# nothing here\n",
-    "quad.obj": "v 0 0 0\nv 1000 0 0\nv 1000 800 100\nv 0 800 100\nf 1 2 3 4\n",
+    "quad.obj": "v 0 0 0\nv 1000 0 0\nv 1000 800 100\nv 0 800 300\nf 1 2 3 4\n",     # warped: either diagonal
     "nonmanifold.obj": ("v 0 0 0\nv 1000 0 0\nv 500 800 0\nv 500 -800 0\nv 500 0 800\n"
                         "f 1 2 3\nf 2 1 4\nf 1 2 5\n"),
     "nan.obj": "v 0 0 0\nv 1000 0 0\nv nan 800 0\nf 1 2 3\n",

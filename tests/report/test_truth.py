@@ -222,7 +222,7 @@ def test_the_distance_to_s_stands_beside_the_deviation_from_s_hat(run_objects):
     assert "to S: RMS mm (% diag)" not in table(html, "check-runs")[0] and "target S" not in _verdict(html)
 
 
-def test_where_part_of_the_face_lies_beyond_s_its_distance_over_s_is_given_too(run_objects):
+def test_where_part_of_the_face_lies_beyond_s_its_distance_over_s_is_given_too(run_objects, tmp_path):
     """S cut to its half: the faces beyond its new rim are measured to that rim, so inflate.json, the text, the
     runs' table and the verdict also give the distance over S alone, with its share of the face."""
     import trimesh
@@ -250,7 +250,7 @@ def test_where_part_of_the_face_lies_beyond_s_its_distance_over_s_is_given_too(r
     assert over["rms_mm"] == pytest.approx(1e3 * med.over_rms, abs=1e-3)
     assert over["rms_pct_diag"] == pytest.approx(100 * med.over_rms / diag, abs=1e-4)
     assert tt["approx"]["over_target"]["rms_mm"] < over["rms_mm"]
-    text = summary_text(check_dict(halved), "out")
+    text = summary_text(check_dict(halved), tmp_path)
     assert (f"over S ({100 * over['share']:.0f}% of the face; the rest lies beyond its rim): RMS "
             f"{over['rms_mm']:.1f} mm ({over['rms_pct_diag']:.2f}%)") in text
     html = report_html(check=halved)
