@@ -131,5 +131,12 @@ def ply_polygons(mesh) -> list | None:
     if raw is None:
         return None
     data = raw.get("data", {})
-    lists = data.get("vertex_indices", data.get("vertex_index")) if hasattr(data, "get") else None
-    return None if lists is None else [np.asarray(p, np.int64) for p in lists]
+    names = data.dtype.names or () if isinstance(data, np.ndarray) else tuple(data)
+    name = next((n for n in ("vertex_indices", "vertex_index") if n in names), None)
+    if name is None:
+        return None
+    lists = data[name]
+    if isinstance(lists, np.ndarray) and lists.dtype.names == ("f0", "f1"):    # binary: (count, fixed-size indices)
+        count, idx = lists["f0"].astype(np.int64), np.atleast_2d(lists["f1"]).astype(np.int64)
+        return [row[:c] for row, c in zip(idx, count)]
+    return [np.asarray(p, np.int64) for p in lists]

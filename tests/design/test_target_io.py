@@ -111,6 +111,18 @@ def test_flat_quads_are_split_along_their_shorter_diagonal(tmp_path, ext):
     assert np.all(cross[:, 2] > 0)                                                # the quads' winding kept
 
 
+def test_a_binary_plys_quads_are_split_too(tmp_path):
+    import struct
+
+    v = np.array([[0, 0, 0], [1000, 0, 0], [1000, 1000, 0], [0, 1000, 0], [2000, 0, 0], [2000, 1000, 0]], "<f4")
+    head = ("ply\nformat binary_little_endian 1.0\nelement vertex 6\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n").encode()
+    path = tmp_path / "quads.ply"
+    path.write_bytes(head + v.tobytes() + struct.pack("<B4i", 4, 0, 1, 2, 3) + struct.pack("<B4i", 4, 1, 4, 5, 2))
+    t = load_target(path)
+    assert sorted(map(sorted, t.faces.tolist())) == [[0, 1, 2], [0, 2, 3], [1, 2, 5], [1, 4, 5]]
+
+
 @pytest.mark.parametrize("ext", ["obj", "ply"])
 def test_a_warped_quad_or_a_pentagon_is_refused_saying_so(tmp_path, ext):
     corner = {"obj": "v 0 1000 0\n", "ply": "\n0 1000 0\n"}[ext]      # the first quad's alone
