@@ -49,10 +49,14 @@ def read_3dm(path) -> tuple:
     Raises
     ------
     airmat.errors.InputError
-        An unreadable file; no visible mesh, surface or extrusion in it; a surface saved without its
+        No rhino3dm here; an unreadable file; no visible mesh, surface or extrusion in it; a surface saved without its
         render mesh; units airmat does not name; a warped quad (:func:`split_quads`).
     """
-    import rhino3dm
+    try:
+        import rhino3dm
+    except ImportError:
+        raise InputError("reading a .3dm file needs rhino3dm, which has no wheel for this Python on this machine: "
+                         "export the target as OBJ from Rhino (or use Python 3.11 or later)") from None
 
     model = rhino3dm.File3dm.Read(str(path))
     if model is None:

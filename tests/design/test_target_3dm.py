@@ -166,3 +166,14 @@ def test_the_design_command_reads_a_3dm_target(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "small.3dm" in err[0] and "render mesh" in err[0]
     assert not (tmp_path / "e").exists()
+
+
+def test_without_rhino3dm_a_3dm_is_refused_saying_what_to_export(tmp_path, monkeypatch):
+    import sys
+
+    p, q = _vault()
+    path = _write(tmp_path / "vault.3dm", [_mesh(p, q)])
+    monkeypatch.setitem(sys.modules, "rhino3dm", None)          # as where no wheel exists
+    with pytest.raises(InputError, match="needs rhino3dm.*export the target as OBJ") as err:
+        load_target(path)
+    assert err.value.path == str(path)
