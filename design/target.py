@@ -12,8 +12,7 @@ coordinates, several separate sheets or a closed solid
 A quad can be split along either diagonal and where it is warped the two
 choices are different surfaces: quads flat enough for the choice not to matter
 are split, more warped ones and larger polygons refused, asking for the
-triangulation the user means (:mod:`airmat.design.target_polygons`; OBJ, PLY
-and 3DM; an OFF file's polygons are refused).
+triangulation the user means (:mod:`airmat.design.target_polygons`).
 """
 
 from __future__ import annotations
@@ -320,10 +319,6 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
     vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float)
     faces = np.asarray(getattr(mesh, "faces", np.zeros((0, 3), int)))
     polygons = declared is not None and 0 < declared < len(faces)
-    if polygons and ext == "off":
-        raise InputError(f"the mesh has non-triangle faces ({declared} polygons make {len(faces)} "
-                         "triangles); triangulate it first (e.g. Blender: Triangulate Faces)",
-                         path=path, n_polygons=declared)
     try:
         if polygons:                  # the file's own polygons: flat quads split, others refused
             vertices, faces = _file_polygons(path, ext, mesh, vertices)
@@ -345,12 +340,14 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
 
 
 def _file_polygons(path: Path, ext: str, mesh, vertices: np.ndarray) -> tuple:
-    """The vertices and triangles of a file with quads (:mod:`airmat.design.target_polygons`): an OBJ's from its
-    own lines, a PLY's from the face list trimesh keeps."""
-    from airmat.design.target_polygons import obj_polygons, ply_polygons, triangulated
+    """The vertices and triangles of a file with quads (:mod:`airmat.design.target_polygons`): an OBJ's and an OFF's
+    from their own lines, a PLY's from the face list trimesh keeps."""
+    from airmat.design.target_polygons import obj_polygons, off_polygons, ply_polygons, triangulated
 
     if ext == "obj":
         vertices, polygons = obj_polygons(path.read_bytes())
+    elif ext == "off":
+        vertices, polygons = off_polygons(path.read_bytes())
     else:
         polygons = ply_polygons(mesh)
         if polygons is None:

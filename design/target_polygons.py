@@ -9,8 +9,8 @@ diagonal from the plane of the other three is split along its shorter diagonal; 
 or a polygon of five corners or more, is refused, saying so.
 
 The polygons come from the file itself: an OBJ's ``f`` lines (:func:`obj_polygons`, with its ``v``
-lines, so that the indices are the file's own), a PLY's face list as trimesh keeps it
-(:func:`ply_polygons`), a Rhino mesh's faces (:mod:`airmat.design.target_3dm`).
+lines, so that the indices are the file's own), an OFF's lines (:func:`off_polygons`), a PLY's face
+list as trimesh keeps it (:func:`ply_polygons`), a Rhino mesh's faces (:mod:`airmat.design.target_3dm`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 
 from airmat.errors import InputError
 
-__all__ = ["split_quads", "triangulated", "obj_polygons", "ply_polygons", "QUAD_WARP"]
+__all__ = ["split_quads", "triangulated", "obj_polygons", "off_polygons", "ply_polygons", "QUAD_WARP"]
 
 #: a quad is split when its fourth corner lies within this fraction of its longer diagonal from the plane
 #: of the other three
@@ -122,6 +122,28 @@ def obj_polygons(data: bytes) -> tuple:
         idx = np.array([int(tok.split(b"/")[0]) for tok in m.group(1).split()], np.int64)
         before = int(np.searchsorted(starts, m.start()))          # vertices listed before this face
         polygons.append(np.where(idx < 0, before + idx, idx - 1))
+    return vertices, polygons
+
+
+def off_polygons(data: bytes) -> tuple:
+    """An OFF file's vertices (n, 3) and faces as polygons of vertex indices (colours after them left out).
+
+    Raises
+    ------
+    airmat.errors.InputError
+        A header or a face line that does not parse.
+    """
+    lines = [ln.split() for ln in re.sub(rb"#[^\n]*", b"", data).splitlines()]
+    lines = [ln for ln in lines if ln]
+    first = lines[0]
+    head = first[1:] if len(first) > 1 and first[0].endswith(b"OFF") else (lines[1] if first[0].endswith(b"OFF") else [])
+    body = lines[1:] if len(first) > 1 else lines[2:]
+    try:
+        nv, nf = int(head[0]), int(head[1])
+        vertices = np.array([ln[:3] for ln in body[:nv]], float).reshape(-1, 3)
+        polygons = [np.array(ln[1:1 + int(ln[0])], np.int64) for ln in body[nv:nv + nf]]
+    except (IndexError, ValueError) as exc:
+        raise InputError(f"cannot read the OFF file's polygons: {exc}") from None
     return vertices, polygons
 
 

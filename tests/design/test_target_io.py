@@ -91,15 +91,7 @@ QUADS = {
 }
 
 
-def test_an_off_files_polygons_are_refused(tmp_path):
-    path = tmp_path / "quads.off"
-    path.write_text(QUADS["off"])
-    with pytest.raises(InputError, match="non-triangle faces") as err:
-        load_target(path)
-    assert err.value.data["n_polygons"] == 2
-
-
-@pytest.mark.parametrize("ext", ["obj", "ply"])
+@pytest.mark.parametrize("ext", ["obj", "ply", "off"])
 def test_flat_quads_are_split_along_their_shorter_diagonal(tmp_path, ext):
     path = tmp_path / f"quads.{ext}"
     path.write_text(QUADS[ext])
@@ -123,9 +115,9 @@ def test_a_binary_plys_quads_are_split_too(tmp_path):
     assert sorted(map(sorted, t.faces.tolist())) == [[0, 1, 2], [0, 2, 3], [1, 2, 5], [1, 4, 5]]
 
 
-@pytest.mark.parametrize("ext", ["obj", "ply"])
+@pytest.mark.parametrize("ext", ["obj", "ply", "off"])
 def test_a_warped_quad_or_a_pentagon_is_refused_saying_so(tmp_path, ext):
-    corner = {"obj": "v 0 1000 0\n", "ply": "\n0 1000 0\n"}[ext]      # the first quad's alone
+    corner = {"obj": "v 0 1000 0\n", "ply": "\n0 1000 0\n", "off": "\n0 1000 0\n"}[ext]      # the first quad's alone
     warped = QUADS[ext].replace(corner, corner.replace("1000 0", "1000 100"), 1)   # 100 mm off the others' plane
     path = tmp_path / f"warped.{ext}"
     path.write_text(warped)
