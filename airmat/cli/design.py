@@ -206,6 +206,13 @@ def summary_text(doc: dict, out) -> str:
                      f"{tg['dL_mm']['max_abs']:.1f} mm")
     if doc.get("fold_route"):
         lines.append(f"  fold route: {doc['fold_route']['message']}")
+    tt = r.get("to_target")
+    if tt:
+        over = tt.get("over_target")
+        lines.append(f"  Ŝ to your target S: RMS {tt['rms_mm']:.1f} mm ({tt['rms_pct_diag']:.2f}% of the diagonal), "
+                     f"max {tt['max_mm']:.1f} mm"
+                     + (f"; over S ({100 * over['share']:.0f}% of Ŝ, the rest beyond its rim): RMS {over['rms_mm']:.1f} mm"
+                        if over and over["share"] < 1.0 else ""))
     lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
     lines.extend(f"  warning: {n}" for n in s.get("notes", []) if "extrapolated" in n or CURL_NOTE in n)
     lines.append("  constructible: yes" if r["constructible"] else

@@ -52,6 +52,15 @@ def test_design_of_a_target_file_writes_everything_and_is_reproducible(cylinder_
     assert doc["dashes"] and {d["family"] for d in doc["dashes"]} == {"k1"}
     assert {d["side"] for d in doc["dashes"]} == {"bottom"}
     assert f"bottom face: {len(doc['dashes']):3d} k1 strings" in out
+    tt = doc["report"]["to_target"]            # Ŝ's distance to S, as design.json has it
+    line = f"Ŝ to your target S: RMS {tt['rms_mm']:.1f} mm ({tt['rms_pct_diag']:.2f}% of the diagonal)"
+    assert line in out
+    over = tt["over_target"]
+    assert ("over S (" in out) == (over["share"] < 1.0)
+    from airmat.cli.design import summary_text            # a target smaller than Ŝ: the part over S is given too
+
+    half = {**doc, "report": {**doc["report"], "to_target": {**tt, "over_target": {**over, "share": 0.5, "rms_mm": 0.2}}}}
+    assert "; over S (50% of Ŝ, the rest beyond its rim): RMS 0.2 mm" in summary_text(half, a)
     assert main(["design", str(cylinder_obj), "--mattress", "830x740", *FAST, "--out", str(b)]) == 0
     for name in sorted(FILES):                  # design.3dm too: airmat.design.export.rhino_stable
         assert (a / name).read_bytes() == (b / name).read_bytes(), name
