@@ -177,3 +177,43 @@ def test_without_rhino3dm_a_3dm_is_refused_saying_what_to_export(tmp_path, monke
     with pytest.raises(InputError, match="needs rhino3dm.*export the target as OBJ") as err:
         load_target(path)
     assert err.value.path == str(path)
+
+
+#: an arc of 800 mm chord and 160 mm rise extruded 700 mm, with a 41 x 36 render mesh, to argv[1] (mm); then leaves
+#: at once (see POLYSURFACE)
+EXTRUSION = """
+import os, sys
+import numpy as np
+import rhino3dm as r
+
+arc = r.Arc(r.Point3d(-400, 0, 0), r.Point3d(0, 0, 160), r.Point3d(400, 0, 0)).ToNurbsCurve()
+ext = r.Extrusion.Create(arc, 700.0, False)
+t0, t1 = arc.Domain.T0, arc.Domain.T1
+pts = [arc.PointAt(t0 + x * (t1 - t0)) for x in np.linspace(0, 1, 41)]
+mesh = r.Mesh()
+for j in range(36):
+    for p in pts:
+        mesh.Vertices.Add(p.X, p.Y + 700.0 * j / 35, p.Z)
+for j in range(35):
+    for i in range(40):
+        a = j * 41 + i
+        mesh.Faces.AddFace(a, a + 1, a + 42, a + 41)
+ext.SetMesh(mesh, r.MeshType.Render)
+f = r.File3dm()
+f.Settings.ModelUnitSystem = r.UnitSystem.Millimeters
+f.Objects.AddExtrusion(ext)
+ok = f.Write(sys.argv[1], 8)
+sys.stdout.flush()
+os._exit(0 if ok else 1)
+"""
+
+
+def test_an_extrusion_reads_from_its_render_mesh(tmp_path):
+    import subprocess
+    import sys
+
+    path = tmp_path / "extrusion.3dm"
+    assert subprocess.run([sys.executable, "-c", EXTRUSION, str(path)], timeout=120).returncode == 0
+    t = load_target(path, mattress=SMALL)
+    assert t.units == "mm" and len(t.vertices) == 41 * 36 and len(t.faces) == 2 * 40 * 35
+    np.testing.assert_allclose(np.ptp(t.vertices, axis=0), [0.8, 0.7, 0.16], atol=1e-9)
