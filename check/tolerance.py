@@ -141,7 +141,7 @@ class LinearTolerance(Summarized):
                 return "no spread of the string lengths"
             p = "" if v.p_within_se is None else f", P(RMS <= T) within +-{v.p_within_se:.2f}"
             on = f" on the {v.resolution * 1e3:.0f} mm mesh" if np.isfinite(v.resolution) else ""
-            return (f"the linear spread is within {100 * abs(v.spread_error):.0f} % of {v.samples} full samples{on} "
+            return (f"the linear spread is within {100 * abs(v.spread_error):.1f} % of {v.samples} full samples{on} "
                     f"(antithetic pairs, which give the mean shift){p}")
         return f"UNRELIABLE: {v.why}; use --samples K (a Monte-Carlo of full inflations)"
 
