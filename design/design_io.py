@@ -76,32 +76,17 @@ def report_dict(report) -> dict:
 
 
 def approx_to_target(approx) -> dict:
-    """Ŝ's distance to the user's target S (closest points on S's mesh): RMS, max (mm) and % of Ŝ's diagonal;
-    ``over_target``: the same over the part of Ŝ that lies over S (not beyond its rim,
-    :func:`airmat.design.closest_point.beyond_rim`) and that part's share of Ŝ's vertices (none when no
-    vertex lies over S).
+    """Ŝ's distance to the user's target S (closest points on S's mesh): RMS, max (mm) and % of Ŝ's diagonal,
+    and ``over_target``: the same over the part of Ŝ that lies over S, not beyond its rim, with its share
+    (:meth:`airmat.design.target_distance.TargetDistance.summary_mm`).
 
     Only when the design has S (``approx.target``): one designed in memory, or read from a
     folder that keeps ``target.ply``.
     """
-    from airmat.design.closest_point import BEYOND_RIM, MeshProjector, beyond_rim
+    from airmat.design.target_distance import distance_to_target
 
-    t = approx.target
-    near = MeshProjector(t.vertices, t.faces).closest(approx.xyz)
-    dist = near.distance
     diag = float(np.linalg.norm(np.ptp(approx.xyz, axis=0)))
-    over = ~beyond_rim(approx.xyz, near, BEYOND_RIM * diag)
-    doc = _distance_mm(dist, diag)
-    if over.any():
-        doc["over_target"] = {"share": round(float(np.mean(over)), 4), **_distance_mm(dist[over], diag)}
-    return doc
-
-
-def _distance_mm(dist: np.ndarray, diag: float) -> dict:
-    """RMS and max of distances (m, at least one) in mm, the RMS in % of ``diag`` (m)."""
-    rms = float(np.sqrt(np.mean(dist ** 2)))
-    return {"rms_mm": round(rms / MM, 3), "max_mm": round(float(dist.max()) / MM, 3),
-            "rms_pct_diag": round(100.0 * rms / diag, 4)}
+    return distance_to_target(approx.xyz, approx.target, diagonal=diag).summary_mm()
 
 
 def _write_samples(path: Path, calibration: CalibrationSource) -> None:

@@ -325,17 +325,23 @@ def load_target(path, *, units: str = "mm", name: str | None = None, mattress=No
         _check_mesh(vertices, faces, topology=False)  # NaNs before merging, which would hide them
         if _stored_float32(path):     # before merging too: the rounding merges vertices
             _check_float32_rounding(path, vertices, faces, units)
-        merged, kept, dropped = _without_empty_faces(*_merged(vertices, faces))
-        if dropped:
-            log.info("target %s: %d faces without surface dropped (a vertex named twice, or a face written twice)",
-                     path.name, dropped)
-        target = Target(merged * UNITS[units], kept, name=name or path.stem, units=units)
-        if mattress is not None:
-            check_scale(target, mattress)
+        return _target(path, vertices, faces, units, name, mattress)
     except InputError as err:
         raise err.with_path(path)
-    log.info("target %s: %d vertices, %d faces, bounding diagonal %.0f mm",
-             target.name, len(target.vertices), len(target.faces), 1e3 * target.bbox_diagonal)
+
+
+def _target(path: Path, vertices: np.ndarray, faces: np.ndarray, units: str, name: str | None, mattress) -> Target:
+    """The Target of a file's vertices (in ``units``) and triangles: coincident vertices merged, faces without
+    surface dropped (:func:`_without_empty_faces`), its size checked against ``mattress``."""
+    merged, kept, dropped = _without_empty_faces(*_merged(vertices, faces))
+    if dropped:
+        log.info("target %s: %d faces without surface dropped (a vertex named twice, or a face written twice)",
+                 path.name, dropped)
+    target = Target(merged * UNITS[units], kept, name=name or path.stem, units=units)
+    if mattress is not None:
+        check_scale(target, mattress)
+    log.info("target %s: %d vertices, %d faces (%s), bounding diagonal %.0f mm", target.name, len(target.vertices),
+             len(target.faces), units, 1e3 * target.bbox_diagonal)
     return target
 
 
@@ -363,17 +369,10 @@ def _load_3dm(path: Path, units: str, name: str | None, mattress) -> Target:
 
     try:
         vertices, faces, own = read_3dm(path)
-        units = own or units
         _check_mesh(vertices, faces, topology=False)
-        merged, kept, dropped = _without_empty_faces(*_merged(vertices, faces))
-        target = Target(merged * UNITS[units], kept, name=name or path.stem, units=units)
-        if mattress is not None:
-            check_scale(target, mattress)
+        return _target(path, vertices, faces, own or units, name, mattress)
     except InputError as err:
         raise err.with_path(path)
-    log.info("target %s: %d vertices, %d faces (%s), bounding diagonal %.0f mm", target.name, len(target.vertices),
-             len(target.faces), units, 1e3 * target.bbox_diagonal)
-    return target
 
 
 def _merged(vertices: np.ndarray, faces: np.ndarray) -> tuple:

@@ -27,7 +27,7 @@ __all__ = ["split_quads", "triangulated", "obj_polygons", "off_polygons", "ply_p
 #: of the other three
 QUAD_WARP = 0.01
 
-_V = re.compile(rb"(?m)^[ \t]*v[ \t]+([^\n]*)")
+_V = re.compile(rb"(?m)^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)")
 _F = re.compile(rb"(?m)^[ \t]*f[ \t]+([^\n#]*)")
 
 
@@ -114,15 +114,14 @@ def obj_polygons(data: bytes) -> tuple:
     Only ``v`` and ``f`` lines are read (texture and normal indices after ``/`` are left out); a relative
     (negative) index counts back from the vertices listed before its face.
     """
-    rows = _V.findall(data)
-    vertices = np.array([r.split()[:3] for r in rows], float).reshape(-1, 3)
+    vertices = np.array(_V.findall(data), dtype="S").astype(float).reshape(-1, 3)
+    faces = [(m.start(), np.array([int(tok.split(b"/")[0]) for tok in m.group(1).split()], np.int64))
+             for m in _F.finditer(data)]
+    if not any((idx < 0).any() for _, idx in faces):
+        return vertices, [idx - 1 for _, idx in faces]
     starts = np.array([m.start() for m in _V.finditer(data)], np.int64)
-    polygons = []
-    for m in _F.finditer(data):
-        idx = np.array([int(tok.split(b"/")[0]) for tok in m.group(1).split()], np.int64)
-        before = int(np.searchsorted(starts, m.start()))          # vertices listed before this face
-        polygons.append(np.where(idx < 0, before + idx, idx - 1))
-    return vertices, polygons
+    before = np.searchsorted(starts, [at for at, _ in faces])           # vertices listed before each face
+    return vertices, [np.where(idx < 0, b + idx, idx - 1) for (_, idx), b in zip(faces, before)]
 
 
 def off_polygons(data: bytes) -> tuple:
